@@ -1,0 +1,1 @@
+"""Episodic memory (ChromaDB) and the per-episode scratchpad (no MCP code)."""

@@ -1,0 +1,1 @@
+"""The simulated household: scene, robot, navigation and ground truth (no MCP code)."""

@@ -1,0 +1,1 @@
+"""What the server and the client both import: pydantic schemas of tool results, tasks and traces."""

@@ -1,0 +1,146 @@
+"""Results of the robot's actions and the world's ground truth, as pydantic models.
+
+The world returns these from its plain Python API; the MCP server publishes them as structured
+tool output (their JSON schemas become the tools' `outputSchema`); the client reads them back.
+Every failure is a result with `status: "failure"`, an `error` code and a message a model can act on.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import BaseModel, Field
+
+Status = Literal["success", "failure"]
+
+ErrorCode = Literal[
+    "unknown_location",
+    "unknown_object",
+    "unknown_position",
+    "no_path",
+    "not_at_location",
+    "out_of_reach",
+    "already_holding",
+    "nothing_held",
+    "position_occupied",
+    "not_graspable",
+    "place_failed",
+]
+
+
+class ActionResult(BaseModel):
+    """What every robot action returns."""
+
+    status: Status = Field(description="'success' if the action did what was asked, else 'failure'")
+    message: str = Field(description="what happened, and on failure what to do about it")
+    error: ErrorCode | None = Field(default=None, description="machine-readable reason of a failure")
+    suggestions: list[str] = Field(default=[], description="valid names close to a misspelt one")
+
+
+class PositionView(BaseModel):
+    """A place position as the robot perceives it."""
+
+    name: str = Field(description="the position's name, to pass to place()")
+    occupied_by: str | None = Field(default=None, description="the object resting there, if any")
+
+
+class LocationView(BaseModel):
+    """A semantic location as the robot perceives it."""
+
+    name: str
+    neighbours: list[str] = Field(description="locations reachable directly from here")
+    objects: list[str] = Field(description="objects at this location (on its positions or nearby)")
+    place_positions: list[PositionView] = Field(description="where objects can be placed here")
+
+
+class LookAroundResult(ActionResult):
+    """The robot's view of the world."""
+
+    location: str = Field(description="where the robot is")
+    holding: str | None = Field(default=None, description="the object in the robot's hand, if any")
+    locations: list[LocationView] = Field(default=[], description="every location with its objects")
+
+
+class MoveResult(ActionResult):
+    """The outcome of move_to."""
+
+    location: str = Field(description="where the robot is after the action")
+    path: list[str] = Field(default=[], description="the locations passed through, start and goal included")
+    distance_m: float = Field(default=0.0, description="distance driven, metres")
+
+
+class GrabResult(ActionResult):
+    """The outcome of grab."""
+
+    object: str | None = Field(default=None, description="the object the action was about")
+    holding: str | None = Field(default=None, description="the object in the robot's hand afterwards")
+
+
+class PlaceResult(ActionResult):
+    """The outcome of place."""
+
+    object: str | None = Field(default=None, description="the object placed (or that was to be placed)")
+    location: str | None = None
+    position: str | None = None
+    holding: str | None = Field(default=None, description="the object in the robot's hand afterwards")
+
+
+# --- ground truth -------------------------------------------------------------------------------
+
+
+class ObjectPlacement(BaseModel):
+    """Where an object is, derived from its pose and contacts in the physics state."""
+
+    object: str
+    state: Literal["on_position", "held", "loose"] = Field(
+        description="resting on a place position, held by the robot, or anywhere else"
+    )
+    location: str | None = Field(default=None, description="the location it is at or nearest to")
+    position: str | None = Field(default=None, description="the place position it rests on")
+    xyz: tuple[float, float, float]
+    resting: bool = Field(description="at rest and supported (not moving, not held)")
+    room: str | None = None
+
+
+class PositionState(BaseModel):
+    """A place position and what rests on it."""
+
+    location: str
+    position: str
+    occupied_by: str | None = None
+
+
+class RobotState(BaseModel):
+    """The robot's pose and hand."""
+
+    location: str
+    xyz: tuple[float, float, float]
+    yaw: float
+    holding: str | None = None
+
+
+class WorldState(BaseModel):
+    """The ground truth of the whole world."""
+
+    robot: RobotState
+    objects: list[ObjectPlacement]
+    positions: list[PositionState]
+    sim_time_s: float
+    steps: int
+
+
+class ObjectVerdict(BaseModel):
+    """Whether one object meets a task's success condition, and why."""
+
+    object: str
+    ok: bool
+    reason: str
+
+
+class TaskVerdict(BaseModel):
+    """The ground-truth verdict of a task: success only if every object's condition holds."""
+
+    task_id: str
+    success: bool
+    reason: str = Field(description="one line summing up the verdict")
+    objects: list[ObjectVerdict] = []
