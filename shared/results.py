@@ -144,3 +144,55 @@ class TaskVerdict(BaseModel):
     success: bool
     reason: str = Field(description="one line summing up the verdict")
     objects: list[ObjectVerdict] = []
+
+
+# --- working and episodic memory, episodes --------------------------------------------------------
+
+
+class ScratchpadResult(BaseModel):
+    """The outcome of add_to_scratchpad."""
+
+    status: Status
+    message: str
+    entries: int = Field(description="entries on the scratchpad now")
+    dropped: int = Field(default=0, description="oldest entries dropped to stay within the scratchpad's bounds")
+
+
+class ScratchpadView(BaseModel):
+    """The scratchpad's content."""
+
+    status: Status = "success"
+    message: str
+    content: str = Field(description="all entries, oldest first, separated by blank lines")
+    entries: int
+
+
+class Experience(BaseModel):
+    """A past episode as search_memory shows it to the agent."""
+
+    task_description: str = Field(description="the task as it was given")
+    status: Status = Field(description="how the episode ended (the agent's belief, or the verified outcome)")
+    status_source: Literal["believed", "verified"] = Field(
+        description="'believed': the agent's own report; 'verified': checked against the world"
+    )
+    summary: str = Field(description="what was done and learned")
+    when: str = Field(description="when it was recorded (ISO-8601, UTC)")
+    distance: float = Field(description="cosine distance to the query, smaller is closer")
+
+
+class MemorySearchResult(BaseModel):
+    """The outcome of search_memory."""
+
+    status: Status
+    message: str
+    results: list[Experience] = []
+
+
+class EndTaskResult(BaseModel):
+    """The outcome of end_task."""
+
+    status: Status
+    message: str
+    record_id: str | None = Field(default=None, description="the episodic-memory record written")
+    episode: int = Field(description="the number of the episode that ended")
+    tool_calls: int = Field(description="robot tool calls made in the episode")

@@ -66,9 +66,13 @@ class Robot:
         self.joints = [j for j in range(client.getNumJoints(self.arm)) if client.getJointInfo(self.arm, j)[2] != 4]
         self.ee = spec.arm.end_effector_link
         self._forces = [500.0] * len(self.joints)
-        # The arm reaches through furniture kinematically; only held objects and the base collide.
+        # The robot's bodies collide with nothing: the arm reaches kinematically through furniture, the
+        # base only ever stops at locations (away from place positions), and a held object must not
+        # fight the body carrying it. Set once here: changing collision filters later would break
+        # PyBullet's restoreState, which World.reset relies on.
         for link in range(-1, client.getNumJoints(self.arm)):
             client.setCollisionFilterGroupMask(self.arm, link, 0, 0)
+        client.setCollisionFilterGroupMask(self.base, -1, 0, 0)
         cid = client._client
         self._reset_pose = functools.partial(pybullet.resetBasePositionAndOrientation, physicsClientId=cid)
         self._reset_joints = functools.partial(pybullet.resetJointStatesMultiDof, physicsClientId=cid)

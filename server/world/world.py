@@ -8,6 +8,7 @@ could have avoided). Where an object is comes from its pose and contacts, not fr
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import functools
 import itertools
 import math
@@ -44,6 +45,12 @@ DEFAULT_SCENE = ASSETS_DIR / "scenes" / "household.yaml"
 ProgressFn = Callable[[float, float, str], None]
 #: Polled between path segments; True stops a motion at the location just reached.
 StopFn = Callable[[], bool]
+
+
+def flush_c_stdio() -> None:
+    """Flush libc's stdio buffers, so text C code printed goes out now, where fd 1 points now."""
+    with contextlib.suppress(OSError, AttributeError):
+        ctypes.CDLL(None).fflush(None)
 
 
 class WorldError(RuntimeError):
@@ -116,6 +123,7 @@ class World:
         else:
             client = BulletClient(connection_mode=pybullet.DIRECT)
         client.setAdditionalSearchPath(pybullet_data.getDataPath())
+        flush_c_stdio()  # PyBullet's C code printf()s on connect; don't leave it buffered for later
         return client
 
     def _build(self) -> None:
@@ -703,17 +711,15 @@ class World:
             parentFrameOrientation=rel_orn,
         )
         c.changeConstraint(constraint, maxForce=500)
-        c.setCollisionFilterPair(self.robot.base, body, -1, -1, 0)
         self._grasp = (name, constraint)
 
     def _release(self) -> None:
         if self._grasp is None:
             return
-        name, constraint = self._grasp
+        _, constraint = self._grasp
         self._grasp = None
         with contextlib.suppress(pybullet.error):
             self.client.removeConstraint(constraint)
-            self.client.setCollisionFilterPair(self.robot.base, self.objects[name].body, -1, -1, 1)
 
 
 def _quote_list(names: list[str]) -> str:

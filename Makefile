@@ -1,0 +1,46 @@
+# robocog — every target sets up .venv and installs the project when missing.
+SHELL := /bin/bash
+PYTHON ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed
+export LITELLM_LOCAL_MODEL_COST_MAP := True
+export ANONYMIZED_TELEMETRY := False
+export PYTHONDONTWRITEBYTECODE := 1
+
+.PHONY: help demo test bench lint format server inspector clean
+
+help: ## Show this help
+	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-10s %s\n", $$1, $$2}'
+
+$(STAMP): pyproject.toml
+	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e ".[dev]"
+	@touch $(STAMP)
+
+demo: $(STAMP) ## Run the paper's T1 then T2 and print each action and the ground-truth verdicts
+	$(BIN)/python -m robocog.server.world.demo
+
+test: $(STAMP) ## Run the test suite (offline; no API key needed)
+	$(BIN)/python -m pytest -q
+
+bench: $(STAMP) ## Print the performance figures as JSON
+	$(BIN)/python tests/bench/run.py
+
+lint: $(STAMP) ## ruff check + format check
+	$(BIN)/ruff check .
+	$(BIN)/ruff format --check .
+
+format: $(STAMP) ## Format the code with ruff
+	$(BIN)/ruff check --fix .
+	$(BIN)/ruff format .
+
+server: $(STAMP) ## Start the MCP server over streamable HTTP on 127.0.0.1:8765
+	$(BIN)/robocog-server --transport http --port 8765
+
+inspector: $(STAMP) ## Open the MCP Inspector on the stdio server (needs Node.js and network for npx)
+	npx @modelcontextprotocol/inspector $(abspath $(BIN))/robocog-server
+
+clean: ## Remove the virtualenv and caches
+	rm -rf $(VENV) .pytest_cache .ruff_cache

@@ -1,0 +1,141 @@
+"""`robocog-server`: the household robot as an MCP server (stdio by default, or streamable HTTP)."""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import os
+import sys
+from collections.abc import Iterator, Sequence
+from pathlib import Path
+
+DESCRIPTION = """\
+A simulated household robot (PyBullet) behind the Model Context Protocol.
+
+One server is one robot: a mobile manipulator in a kitchen, hallway and living room, with an
+episodic memory (ChromaDB, embedded by default) and a scratchpad. Tools: look_around, move_to,
+grab, place, add_to_scratchpad, view_scratchpad, end_task, search_memory; with --profile eval
+also reset_world, check_task, clear_memory. Resources: robocog://world/state, robocog://world/map,
+robocog://world/image, robocog://tasks. Prompts: robot_system, T1, T2.
+"""
+
+EPILOG = """\
+examples:
+  robocog-server                                  # stdio, for Claude Desktop, Cursor, the MCP Inspector
+  robocog-server --transport http --port 8765     # streamable HTTP on http://127.0.0.1:8765/mcp
+  robocog-server --profile eval --data-dir /tmp/mem --memory-namespace trial-3
+  robocog-server --memory-url http://127.0.0.1:8000   # share one Chroma server between robots
+
+environment:
+  ROBOCOG_DATA_DIR   default for --data-dir
+"""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="robocog-server",
+        description=DESCRIPTION,
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    t = p.add_argument_group("transport")
+    t.add_argument("--transport", choices=["stdio", "http"], default="stdio", help="default: stdio")
+    t.add_argument("--host", default="127.0.0.1", help="HTTP bind address (default: 127.0.0.1, this machine only)")
+    t.add_argument("--port", type=int, default=8765, help="HTTP port (default: 8765); the endpoint is /mcp")
+    t.add_argument("--log-level", default="WARNING", choices=["DEBUG", "INFO", "WARNING", "ERROR"])
+    w = p.add_argument_group("world")
+    w.add_argument(
+        "--profile",
+        choices=["default", "eval"],
+        default="default",
+        help="'eval' adds reset_world, check_task and clear_memory for evaluation harnesses",
+    )
+    w.add_argument("--scene", type=Path, default=None, help="scene YAML (default: the paper's household)")
+    w.add_argument("--seed", type=int, default=None, help="seed of the world's random generator")
+    w.add_argument("--randomize", action="store_true", help="start objects on seeded random free positions")
+    w.add_argument("--gui", action="store_true", help="open the PyBullet GUI (needs a display)")
+    m = p.add_argument_group("memory")
+    m.add_argument(
+        "--data-dir",
+        type=Path,
+        default=os.environ.get("ROBOCOG_DATA_DIR") or None,
+        help="where the embedded episodic memory lives (default: $ROBOCOG_DATA_DIR or a per-user dir)",
+    )
+    m.add_argument("--memory-url", default=None, help="use a Chroma server at this URL instead, e.g. http://host:8000")
+    m.add_argument("--memory-namespace", default="default", help="memory collection, so experiments never mix")
+    m.add_argument(
+        "--memory-labels",
+        choices=["believed", "verified"],
+        default="believed",
+        help="what search_memory reports as a past episode's status (default: believed, as in the paper)",
+    )
+    return p
+
+
+@contextlib.contextmanager
+def _stdout_to_stderr() -> Iterator[None]:
+    """Send fd 1 to stderr for a while: pybullet prints its build banner on stdout at import."""
+    sys.stdout.flush()
+    saved = os.dup(1)
+    os.dup2(2, 1)
+    try:
+        yield
+    finally:
+        sys.stdout.flush()
+        from robocog.server.world.world import flush_c_stdio
+
+        flush_c_stdio()
+        os.dup2(saved, 1)
+        os.close(saved)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    with _stdout_to_stderr():
+        import pybullet  # noqa: F401  (its banner must not reach the protocol stream)
+
+    from robocog.server.app import build_server
+    from robocog.server.memory.episodic import collection_name, parse_chroma_url
+    from robocog.server.session import SessionConfig
+    from robocog.server.world.world import WorldError
+    from robocog.shared.scene import SceneError, load_scene
+
+    try:  # fail fast, with the reason, before any client connects
+        if args.scene is not None:
+            load_scene(args.scene)
+        if args.memory_url is not None:
+            parse_chroma_url(args.memory_url)
+        collection_name(args.memory_namespace)
+    except (SceneError, ValueError) as exc:
+        print(f"robocog-server: {exc}", file=sys.stderr)
+        return 2
+    if args.gui and not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
+        print("robocog-server: --gui needs a display and none is set (DISPLAY is empty)", file=sys.stderr)
+        return 2
+    config = SessionConfig(
+        scene=args.scene,
+        seed=args.seed,
+        randomize=args.randomize,
+        gui=args.gui,
+        data_dir=args.data_dir,
+        memory_url=args.memory_url,
+        namespace=args.memory_namespace,
+        memory_labels=args.memory_labels,
+    )
+    server = build_server(config, profile=args.profile, log_level=args.log_level)
+    try:
+        if args.transport == "stdio":
+            server.run("stdio")
+        else:
+            print(f"robocog-server: MCP over streamable HTTP at http://{args.host}:{args.port}/mcp", file=sys.stderr)
+            server.run("streamable-http", host=args.host, port=args.port)
+    except WorldError as exc:
+        print(f"robocog-server: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        pass
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
