@@ -1,0 +1,136 @@
+"""End to end: a real `robocog-server` process, over stdio and over streamable HTTP."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+from mcp import Client
+from mcp.client.stdio import StdioServerParameters
+
+from robocog.server.world.demo import T1_SEQUENCE, T2_SEQUENCE
+from tests.test_server import action_args
+
+pytestmark = pytest.mark.anyio
+
+
+def server_command() -> list[str]:
+    """The installed console script, or the module when run from a bare checkout."""
+    script = shutil.which("robocog-server", path=str(Path(sys.executable).parent))
+    return [script] if script else [sys.executable, "-m", "robocog.server.cli"]
+
+
+def stdio_params(*args: str) -> StdioServerParameters:
+    command, *rest = server_command()
+    return StdioServerParameters(command=command, args=[*rest, *args], env={"ANONYMIZED_TELEMETRY": "False"})
+
+
+async def run_t1_then_t2(client: Client) -> None:
+    for task_id, sequence, prompt in (
+        ("T1", T1_SEQUENCE, "Put away all the items into the shelf."),
+        ("T2", T2_SEQUENCE, "Swap the mug and the cube in the shelf."),
+    ):
+        before = await client.call_tool("check_task", {"task_id": task_id})
+        assert before.structured_content is not None and before.structured_content["success"] is False
+        for action in sequence:
+            result = await client.call_tool(action[0], action_args(action))
+            assert not result.is_error, result.content
+        await client.call_tool("end_task", {"status": "success", "description": prompt, "summary": "done"})
+        after = await client.call_tool("check_task", {"task_id": task_id})
+        assert after.structured_content is not None and after.structured_content["success"] is True, after.content
+
+
+async def test_t1_then_t2_over_stdio(tmp_path: Path) -> None:
+    async with Client(stdio_params("--profile", "eval", "--data-dir", str(tmp_path))) as client:
+        await run_t1_then_t2(client)
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+@pytest.fixture
+def http_server(tmp_path: Path) -> Iterator[str]:
+    port = free_port()
+    log = (tmp_path / "server.log").open("w")
+    proc = subprocess.Popen(
+        [
+            *server_command(),
+            "--transport",
+            "http",
+            "--port",
+            str(port),
+            "--profile",
+            "eval",
+            "--data-dir",
+            str(tmp_path / "memory"),
+        ],
+        stdout=log,
+        stderr=subprocess.STDOUT,
+        env={**os.environ, "ANONYMIZED_TELEMETRY": "False"},
+    )
+    try:
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline:
+            assert proc.poll() is None, (tmp_path / "server.log").read_text()
+            with socket.socket() as s:
+                if s.connect_ex(("127.0.0.1", port)) == 0:
+                    break
+            time.sleep(0.1)
+        yield f"http://127.0.0.1:{port}/mcp"
+    finally:
+        proc.terminate()
+        proc.wait(timeout=10)
+        log.close()
+
+
+async def test_t1_then_t2_over_http(http_server: str) -> None:
+    async with Client(http_server) as client:
+        await run_t1_then_t2(client)
+
+
+async def test_memory_persists_across_a_restart_and_namespaces_stay_apart(tmp_path: Path) -> None:
+    data = str(tmp_path / "memory")
+    async with Client(stdio_params("--data-dir", data, "--memory-namespace", "trial-1")) as client:
+        await client.call_tool(
+            "end_task", {"status": "success", "description": "Put away all the items into the shelf.", "summary": "ok"}
+        )
+        await client.call_tool("end_task", {"status": "failure", "description": "Open the window.", "summary": "no"})
+    async with Client(stdio_params("--data-dir", data, "--memory-namespace", "trial-1")) as client:
+        found = await client.call_tool("search_memory", {"query": "put the items away on the shelf"})
+        assert found.structured_content is not None
+        results = found.structured_content["results"]
+        assert len(results) == 2
+        assert results[0]["task_description"] == "Put away all the items into the shelf."
+    async with Client(stdio_params("--data-dir", data, "--memory-namespace", "trial-2")) as client:
+        found = await client.call_tool("search_memory", {"query": "put the items away on the shelf"})
+        assert found.structured_content is not None and found.structured_content["results"] == []
+
+
+def test_stdout_carries_only_the_protocol(tmp_path: Path) -> None:
+    request = (
+        '{"jsonrpc":"2.0","id":1,"method":"initialize","params":{"protocolVersion":"2025-06-18",'
+        '"capabilities":{},"clientInfo":{"name":"test","version":"1"}}}\n'
+    )
+    done = subprocess.run(
+        [*server_command(), "--data-dir", str(tmp_path)], input=request, capture_output=True, text=True, timeout=60
+    )
+    lines = [line for line in done.stdout.splitlines() if line.strip()]
+    assert lines and all(line.startswith('{"jsonrpc":"2.0"') for line in lines), done.stdout
+
+
+def test_a_bad_scene_fails_fast_with_the_reason(tmp_path: Path) -> None:
+    bad = tmp_path / "scene.yaml"
+    bad.write_text("name: x\nrobot_start: Nowhere\nlocations: []\n")
+    done = subprocess.run([*server_command(), "--scene", str(bad)], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 2
+    assert str(bad) in done.stderr and "locations" in done.stderr
