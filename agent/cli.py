@@ -1,0 +1,219 @@
+"""`robocog`: drive the robot with any model through LiteLLM (`run`, `chat`), evaluate, report."""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import contextlib
+import json
+import os
+import sys
+import threading
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+os.environ.setdefault("LITELLM_LOCAL_MODEL_COST_MAP", "True")
+
+DEFAULT_MODEL = "scripted/planner"
+
+EPILOG = """\
+models: any LiteLLM model string, e.g. gpt-4.1, anthropic/claude-sonnet-4-20250514, ollama/qwen3,
+openai/<name> with --api-base for a local OpenAI-compatible server (llama.cpp, vLLM). Offline and
+without a key: scripted/planner (the default), scripted/overconfident, scripted/refuser,
+replay/TRACE.jsonl.
+"""
+
+
+def _add_connection(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("server")
+    g.add_argument("--url", help="connect to a running server over streamable HTTP, e.g. http://127.0.0.1:8765/mcp")
+    g.add_argument("--server-cmd", help="command line that starts the server over stdio (default: robocog-server)")
+    g.add_argument("--data-dir", help="memory directory for the spawned server")
+    g.add_argument("--memory-namespace", help="memory namespace for the spawned server")
+    g.add_argument("--seed", type=int, default=None, help="seed for the spawned world and for the model")
+    g.add_argument("--scene", help="scene YAML for the spawned server")
+
+
+def _add_model(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("model")
+    g.add_argument("--model", default=DEFAULT_MODEL, help=f"LiteLLM model string (default: {DEFAULT_MODEL})")
+    g.add_argument("--api-base", help="base URL of an OpenAI-compatible server (llama.cpp, vLLM, ...)")
+    g.add_argument("--temperature", type=float, default=None)
+    g.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="extra completion parameter (JSON value), repeatable, e.g. --param p=0.5",
+    )
+    g.add_argument("--max-invocations", type=int, default=10, help="re-invocations before a refusal (default 10)")
+    g.add_argument("--max-steps", type=int, default=60, help="model turns per invocation (default 60)")
+    g.add_argument("--timeout", type=float, default=180.0, help="seconds per model or tool call (default 180)")
+    g.add_argument("--trace", type=Path, help="append every event as JSON lines to this file")
+    g.add_argument("--quiet", action="store_true", help="print only the verdicts")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="robocog",
+        description="Drive the robocog household robot with any model, over MCP.",
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    sub = parser.add_subparsers(dest="command", required=True)
+    run = sub.add_parser(
+        "run",
+        help="run one or more tasks in order, in one world",
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    run.add_argument("tasks", nargs="+", metavar="TASK", help="an instruction, or a task id such as T1")
+    _add_model(run)
+    _add_connection(run)
+    chat = sub.add_parser(
+        "chat",
+        help="type tasks one after another to the same robot",
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    _add_model(chat)
+    _add_connection(chat)
+    return parser
+
+
+def _params(items: list[str]) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key:
+            raise SystemExit(f"robocog: --param wants KEY=VALUE, got {item!r}")
+        try:
+            out[key] = json.loads(value)
+        except json.JSONDecodeError:
+            out[key] = value
+    return out
+
+
+def _server_spec(args: argparse.Namespace) -> Any:
+    from robocog.agent.connection import ServerSpec
+
+    extra = ["--profile", "eval"]  # the client checks ground truth; the model never sees those tools
+    for flag, value in (
+        ("--data-dir", args.data_dir),
+        ("--memory-namespace", args.memory_namespace),
+        ("--seed", args.seed),
+        ("--scene", args.scene),
+    ):
+        if value is not None:
+            extra += [flag, str(value)]
+    return ServerSpec.from_options(args.url, args.server_cmd, extra if not args.url else [])
+
+
+def _preload_litellm() -> threading.Thread:
+    """Import LiteLLM (seconds) on a thread while the server starts."""
+
+    def load() -> None:
+        with contextlib.suppress(Exception):  # the real import later reports any failure
+            import litellm  # noqa: F401
+
+    thread = threading.Thread(target=load, daemon=True)
+    thread.start()
+    return thread
+
+
+async def _run_tasks(args: argparse.Namespace, tasks: Sequence[str] | None) -> int:
+    from robocog.agent.connection import connect
+    from robocog.agent.loop import AgentError, AgentSettings, check_credentials, finish, run_episode
+    from robocog.agent.trace import Trace, make_console
+    from robocog.shared.trace import Verdict
+
+    loader = _preload_litellm()
+    settings = AgentSettings(
+        model=args.model,
+        max_invocations=args.max_invocations,
+        max_steps=args.max_steps,
+        timeout_s=args.timeout,
+        api_base=args.api_base,
+        seed=args.seed,
+        temperature=args.temperature,
+        params=_params(args.param),
+    )
+    console = make_console()
+    ok = True
+    async with connect(_server_spec(args)) as robot:
+        await asyncio.to_thread(loader.join)
+        try:
+            check_credentials(settings.model, settings.api_base)
+        except AgentError as exc:
+            print(f"robocog: {exc}", file=sys.stderr)
+            return 2
+        pending = list(tasks) if tasks is not None else None
+        while True:
+            if pending is not None:
+                if not pending:
+                    break
+                task = pending.pop(0)
+            else:
+                task = await asyncio.to_thread(_ask)
+                if task is None:
+                    break
+            prompt = robot.tasks.get(task, task)
+            trace = Trace(args.trace, console=None if args.quiet else console)
+            result = await run_episode(
+                robot.client,
+                prompt,
+                settings,
+                trace,
+                system_prompt=robot.system_prompt,
+                tools=robot.tools,
+                server_label=robot.label,
+            )
+            verdict = None
+            task_id = robot.task_id_for(prompt)
+            if robot.can_check and task_id is not None:
+                checked = await robot.client.call_tool("check_task", {"task_id": task_id})
+                data = checked.structured_content or {}
+                verdict = Verdict(
+                    t=trace.now(),
+                    task_id=task_id,
+                    success=bool(data.get("success")),
+                    reason=str(data.get("reason", "")),
+                )
+            finished = finish(trace, result, verdict)
+            trace.close()
+            if args.quiet:
+                truth = "unknown" if verdict is None else ("success" if verdict.success else "failure")
+                believed = {True: "success", False: "failure", None: "never ended"}[result.believed_success]
+                print(f"{task_id or prompt}: believed {believed}, ground truth {truth}, {result.tool_calls} tool calls")
+            if result.error:
+                print(f"robocog: {result.error}", file=sys.stderr)
+            ok = ok and finished.ended and bool(finished.believed_success) and finished.true_success is not False
+    return 0 if ok else 1
+
+
+def _ask() -> str | None:
+    try:
+        text = input("task> ").strip()
+    except EOFError:
+        return None
+    if text in ("", "/quit", "/exit", "quit", "exit"):
+        return None if text else _ask()
+    return text
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        if args.command == "run":
+            return asyncio.run(_run_tasks(args, args.tasks))
+        if args.command == "chat":
+            print("Type a task (or a task id such as T1); an empty line or /quit ends the session.")
+            return asyncio.run(_run_tasks(args, None))
+    except KeyboardInterrupt:
+        return 130
+    return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,101 @@
+"""Reaching the robot: spawn `robocog-server` over stdio (default), or connect over streamable HTTP.
+
+The client never imports `robocog.server`: it speaks MCP to whatever the command line or URL gives.
+"""
+
+from __future__ import annotations
+
+import os
+import shlex
+import shutil
+import sys
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from mcp import Client
+from mcp.client.stdio import StdioServerParameters
+from mcp_types import Tool
+
+from robocog.shared import __version__
+
+
+def default_server_command() -> list[str]:
+    """`robocog-server` next to this Python, else on PATH, else the module."""
+    beside = Path(sys.executable).parent / "robocog-server"
+    if beside.exists():
+        return [str(beside)]
+    found = shutil.which("robocog-server")
+    return [found] if found else [sys.executable, "-m", "robocog.server.cli"]
+
+
+@dataclass
+class ServerSpec:
+    """How to reach the server: `url` for HTTP, else a command line spawned over stdio."""
+
+    url: str | None = None
+    command: list[str] = field(default_factory=default_server_command)
+    extra_args: list[str] = field(default_factory=list)
+    env: dict[str, str] = field(default_factory=dict)
+
+    @classmethod
+    def from_options(cls, url: str | None, server_cmd: str | None, extra_args: list[str] | None = None) -> ServerSpec:
+        command = shlex.split(server_cmd) if server_cmd else default_server_command()
+        return cls(url=url, command=command, extra_args=extra_args or [])
+
+    @property
+    def label(self) -> str:
+        return self.url or shlex.join(self.command + self.extra_args)
+
+
+@dataclass
+class Robot:
+    """A connected MCP client plus what the run needs from the server."""
+
+    client: Client
+    tools: list[Tool]
+    system_prompt: str
+    tasks: dict[str, str]  # task id -> prompt (from robocog://tasks)
+    label: str
+
+    @property
+    def can_check(self) -> bool:
+        return any(t.name == "check_task" for t in self.tools)
+
+    def task_id_for(self, prompt: str) -> str | None:
+        wanted = " ".join(prompt.split()).casefold()
+        return next((tid for tid, text in self.tasks.items() if " ".join(text.split()).casefold() == wanted), None)
+
+
+@asynccontextmanager
+async def connect(spec: ServerSpec) -> AsyncIterator[Robot]:
+    """Connect, list the tools, fetch the system prompt and the task catalogue."""
+    import json
+
+    from mcp_types import Implementation
+
+    info = Implementation(name="robocog", version=__version__)
+    if spec.url:
+        target: Any = spec.url
+    else:
+        env = {
+            "ANONYMIZED_TELEMETRY": "False",
+            **{k: v for k, v in os.environ.items() if k.startswith("ROBOCOG_")},
+            **spec.env,
+        }
+        command, *args = spec.command
+        target = StdioServerParameters(command=command, args=[*args, *spec.extra_args], env=env)
+    async with Client(target, client_info=info) as client:
+        tools = (await client.list_tools()).tools
+        prompt = await client.get_prompt("robot_system")
+        system_prompt = "\n".join(getattr(m.content, "text", "") for m in prompt.messages)
+        tasks: dict[str, str] = {}
+        try:
+            catalogue = await client.read_resource("robocog://tasks")
+            for item in json.loads(getattr(catalogue.contents[0], "text", "[]")):
+                tasks[item["id"]] = item["prompt"]
+        except Exception:  # a server without the catalogue can still be driven
+            tasks = {}
+        yield Robot(client=client, tools=tools, system_prompt=system_prompt, tasks=tasks, label=spec.label)

@@ -1,0 +1,355 @@
+"""The agent loop: a LiteLLM model drives the robot through MCP tools until it calls end_task.
+
+The client talks to the robot only through MCP. Each model turn may carry several tool calls,
+executed in order; their results go back to the model. When the model stops without calling
+end_task it is re-invoked with the task restated (the paper's protocol), up to `max_invocations`;
+a task that is never ended is recorded as stopped (a refusal).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import os
+import random
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+from mcp import Client
+from mcp_types import Tool
+
+from robocog.agent.trace import Trace
+from robocog.shared.trace import ModelTurn, Reinvoked, RunFinished, RunStarted, ToolCall, ToolResult, Verdict
+
+#: Tools for evaluation harnesses: never offered to the model.
+CONTROL_TOOLS = frozenset({"reset_world", "check_task", "clear_memory"})
+#: `_meta` key naming the model on tool calls (the server stores it with end_task's report).
+MODEL_META_KEY = "robocog/model"
+
+os.environ.setdefault("LITELLM_LOCAL_MODEL_COST_MAP", "True")
+
+
+class AgentError(RuntimeError):
+    """The run cannot go on (no API key, the model service keeps failing, the server is gone)."""
+
+
+@dataclass
+class AgentSettings:
+    model: str
+    max_invocations: int = 10
+    max_steps: int = 60
+    timeout_s: float = 180.0
+    retries: int = 4
+    api_base: str | None = None
+    seed: int | None = None
+    temperature: float | None = None
+    params: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass
+class EpisodeResult:
+    task: str
+    ended: bool
+    believed_success: bool | None
+    invocations: int
+    tool_calls: int
+    tokens_in: int
+    tokens_out: int
+    cost: float | None
+    llm_latency_s: float
+    wall_s: float
+    summary: str | None = None
+    error: str | None = None
+
+    @property
+    def stopped(self) -> bool:
+        return not self.ended
+
+
+def function_definitions(tools: list[Tool]) -> list[dict[str, Any]]:
+    """MCP tool schemas as OpenAI / LiteLLM function definitions (control tools left out)."""
+    return [
+        {
+            "type": "function",
+            "function": {
+                "name": t.name,
+                "description": t.description or t.title or t.name,
+                "parameters": t.input_schema or {"type": "object", "properties": {}},
+            },
+        }
+        for t in tools
+        if t.name not in CONTROL_TOOLS
+    ]
+
+
+def reminder(task: str) -> str:
+    return (
+        f"The task is not finished: you have not called end_task yet. The task is: {task}\n"
+        "Act with your tools to complete it, or call end_task with an honest status and a summary."
+    )
+
+
+def check_credentials(model: str, api_base: str | None) -> None:
+    """Raise `AgentError` naming the environment variable a cloud model needs and lacks."""
+    if model.split("/", 1)[0] in ("scripted", "replay", "ollama", "ollama_chat") or api_base:
+        return
+    import litellm
+
+    try:
+        check = litellm.validate_environment(model=model)
+    except Exception:  # an unknown provider: let the call itself say what is wrong
+        return
+    missing = check.get("missing_keys") or []
+    if missing:
+        raise AgentError(f"model {model!r} needs {', '.join(missing)} set in the environment")
+
+
+async def complete(settings: AgentSettings, messages: list[dict[str, Any]], tools: list[dict[str, Any]]) -> Any:
+    """One model call with retries and backoff on rate limits, timeouts and server errors."""
+    import litellm
+
+    from robocog.agent.providers import register
+
+    register()
+    kwargs: dict[str, Any] = dict(settings.params)
+    if settings.api_base:
+        kwargs["api_base"] = settings.api_base
+    if settings.seed is not None:
+        kwargs["seed"] = settings.seed
+    if settings.temperature is not None:
+        kwargs["temperature"] = settings.temperature
+    transient = (
+        litellm.RateLimitError,
+        litellm.Timeout,
+        litellm.APIConnectionError,
+        litellm.InternalServerError,
+        litellm.ServiceUnavailableError,
+    )
+    for attempt in range(settings.retries + 1):
+        try:
+            return await litellm.acompletion(
+                model=settings.model, messages=messages, tools=tools, timeout=settings.timeout_s, **kwargs
+            )
+        except litellm.AuthenticationError as exc:
+            raise AgentError(f"the model service refused the credentials: {exc}") from exc
+        except transient as exc:
+            if attempt == settings.retries:
+                raise AgentError(f"the model service kept failing ({type(exc).__name__}): {exc}") from exc
+            await asyncio.sleep(min(30.0, 2.0**attempt) * (0.5 + random.random()))
+    raise AssertionError("unreachable")
+
+
+def _assistant_message(response: Any) -> dict[str, Any]:
+    msg = response.choices[0].message
+    out: dict[str, Any] = {"role": "assistant", "content": msg.content}
+    calls = getattr(msg, "tool_calls", None) or []
+    if calls:
+        out["tool_calls"] = [
+            {
+                "id": c.id or f"call_{i}",
+                "type": "function",
+                "function": {"name": c.function.name, "arguments": c.function.arguments or "{}"},
+            }
+            for i, c in enumerate(calls)
+        ]
+    return out
+
+
+def _usage(response: Any) -> tuple[int, int, float | None]:
+    usage = getattr(response, "usage", None)
+    tokens_in = int(getattr(usage, "prompt_tokens", 0) or 0)
+    tokens_out = int(getattr(usage, "completion_tokens", 0) or 0)
+    cost = None
+    hidden = getattr(response, "_hidden_params", None) or {}
+    if isinstance(hidden, dict) and hidden.get("response_cost") is not None:
+        cost = float(hidden["response_cost"])
+    return tokens_in, tokens_out, cost
+
+
+def _text(result: Any) -> str:
+    parts = [getattr(block, "text", "") for block in result.content]
+    return "\n".join(p for p in parts if p) or json.dumps(result.structured_content)
+
+
+async def run_episode(
+    client: Client,
+    task: str,
+    settings: AgentSettings,
+    trace: Trace,
+    *,
+    system_prompt: str,
+    tools: list[Tool],
+    server_label: str = "",
+) -> EpisodeResult:
+    """Run one task to its end (or to the invocation limit) and return how it went."""
+    started = time.monotonic()
+    definitions = function_definitions(tools)
+    names = {d["function"]["name"] for d in definitions}
+    trace.emit(
+        RunStarted(
+            t=trace.now(), task=task, model=settings.model, server=server_label, tools=sorted(names), seed=settings.seed
+        )
+    )
+    messages: list[dict[str, Any]] = [{"role": "system", "content": system_prompt}, {"role": "user", "content": task}]
+    ended = False
+    believed: bool | None = None
+    summary: str | None = None
+    tool_calls = tokens_in = tokens_out = 0
+    cost: float | None = None
+    llm_latency = 0.0
+    invocation = 0
+    error: str | None = None
+    try:
+        while invocation < settings.max_invocations and not ended:
+            invocation += 1
+            if invocation > 1:
+                trace.emit(Reinvoked(t=trace.now(), invocation=invocation, reason="the model stopped without end_task"))
+                messages.append({"role": "user", "content": reminder(task)})
+            for step in range(1, settings.max_steps + 1):
+                t0 = time.monotonic()
+                response = await complete(settings, messages, definitions)
+                latency = time.monotonic() - t0
+                llm_latency += latency
+                message = _assistant_message(response)
+                messages.append(message)
+                t_in, t_out, c = _usage(response)
+                tokens_in, tokens_out = tokens_in + t_in, tokens_out + t_out
+                if c is not None:
+                    cost = (cost or 0.0) + c
+                trace.emit(
+                    ModelTurn(
+                        t=trace.now(),
+                        invocation=invocation,
+                        step=step,
+                        message=message,
+                        latency_s=round(latency, 4),
+                        tokens_in=t_in,
+                        tokens_out=t_out,
+                        cost=c,
+                    )
+                )
+                calls = message.get("tool_calls") or []
+                if not calls:
+                    break
+                for call in calls:
+                    tool_calls += 1
+                    done, content = await _execute(client, call, names, settings, trace, invocation)
+                    messages.append({"role": "tool", "tool_call_id": call["id"], "content": content})
+                    if done is not None:
+                        ended, believed, summary = True, done[0], done[1]
+                if ended:
+                    break
+    except AgentError as exc:
+        error = str(exc)
+    result = EpisodeResult(
+        task=task,
+        ended=ended,
+        believed_success=believed,
+        invocations=invocation,
+        tool_calls=tool_calls,
+        tokens_in=tokens_in,
+        tokens_out=tokens_out,
+        cost=cost,
+        llm_latency_s=round(llm_latency, 4),
+        wall_s=round(time.monotonic() - started, 4),
+        summary=summary,
+        error=error,
+    )
+    return result
+
+
+async def _execute(
+    client: Client, call: dict[str, Any], names: set[str], settings: AgentSettings, trace: Trace, invocation: int
+) -> tuple[tuple[bool, str] | None, str]:
+    """Run one tool call; returns ((believed success, summary) if it ended the task, text for the model)."""
+    name = call["function"]["name"]
+    raw = call["function"].get("arguments") or "{}"
+    try:
+        arguments = json.loads(raw) if raw.strip() else {}
+        if not isinstance(arguments, dict):
+            raise ValueError("the arguments must be a JSON object")
+    except (json.JSONDecodeError, ValueError) as exc:
+        trace.emit(
+            ToolCall(t=trace.now(), invocation=invocation, id=call["id"], name=name, arguments=None, raw_arguments=raw)
+        )
+        content = (
+            f"Error: the arguments of {name} are not a valid JSON object ({exc}). Call the tool again with "
+            "arguments that match its schema."
+        )
+        trace.emit(
+            ToolResult(
+                t=trace.now(),
+                invocation=invocation,
+                id=call["id"],
+                name=name,
+                is_error=True,
+                content=content,
+                latency_s=0.0,
+            )
+        )
+        return None, content
+    trace.emit(
+        ToolCall(t=trace.now(), invocation=invocation, id=call["id"], name=name, arguments=arguments, raw_arguments=raw)
+    )
+    if name not in names:
+        content = f"Error: there is no tool called {name!r}. The tools are: {', '.join(sorted(names))}."
+        trace.emit(
+            ToolResult(
+                t=trace.now(),
+                invocation=invocation,
+                id=call["id"],
+                name=name,
+                is_error=True,
+                content=content,
+                latency_s=0.0,
+            )
+        )
+        return None, content
+    t0 = time.monotonic()
+    try:
+        result = await client.call_tool(
+            name, arguments, read_timeout_seconds=settings.timeout_s, meta={MODEL_META_KEY: settings.model}
+        )
+    except Exception as exc:  # the server or the transport failed: the run cannot go on
+        raise AgentError(f"the robot server failed on {name}: {exc}") from exc
+    content = _text(result)
+    structured = result.structured_content if isinstance(result.structured_content, dict) else None
+    trace.emit(
+        ToolResult(
+            t=trace.now(),
+            invocation=invocation,
+            id=call["id"],
+            name=name,
+            is_error=bool(result.is_error),
+            content=content,
+            structured=structured,
+            latency_s=round(time.monotonic() - t0, 4),
+        )
+    )
+    if name == "end_task" and not result.is_error:
+        return (arguments.get("status") == "success", str(arguments.get("summary", ""))), content
+    return None, content
+
+
+def finish(trace: Trace, result: EpisodeResult, verdict: Verdict | None) -> RunFinished:
+    """Emit the verdict (when known) and the run's closing event."""
+    if verdict is not None:
+        trace.emit(verdict)
+    event = RunFinished(
+        t=trace.now(),
+        ended=result.ended,
+        stopped=result.stopped,
+        believed_success=result.believed_success,
+        true_success=verdict.success if verdict is not None else None,
+        invocations=result.invocations,
+        tool_calls=result.tool_calls,
+        tokens_in=result.tokens_in,
+        tokens_out=result.tokens_out,
+        cost=result.cost,
+        llm_latency_s=result.llm_latency_s,
+        wall_s=result.wall_s,
+        error=result.error,
+    )
+    trace.emit(event)
+    return event

@@ -1,0 +1,143 @@
+"""Offline "models" registered as LiteLLM custom providers, so they run through the same loop.
+
+- `scripted/planner`: the symbolic planner (the no-key default and the optimal baseline).
+- `scripted/overconfident`: sometimes forgets an object and still reports success. The probability
+  is `scripted/overconfident` with `p` in the completion parameters (default 0.3), seeded by `seed`.
+- `scripted/refuser`: never acts and never ends the task.
+- `replay/PATH.jsonl`: replays the assistant turns recorded in a trace file, in order.
+
+Import this module only where LiteLLM is used: importing LiteLLM costs seconds.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from functools import cache
+from pathlib import Path
+from typing import Any
+
+import litellm
+from litellm import CustomLLM, ModelResponse
+from litellm.types.utils import Choices, Message, Usage
+
+from robocog.agent.planner import Call, decide
+from robocog.shared.trace import ModelTurn, read_trace
+
+SCRIPTED_MODELS = ("planner", "overconfident", "refuser")
+
+
+def _response(model: str, message: dict[str, Any], prompt_chars: int) -> ModelResponse:
+    tool_calls = message.get("tool_calls") or None
+    completion_chars = len(json.dumps(message))
+    return ModelResponse(
+        model=model,
+        created=int(time.time()),
+        choices=[
+            Choices(
+                index=0,
+                finish_reason="tool_calls" if tool_calls else "stop",
+                message=Message(role="assistant", content=message.get("content"), tool_calls=tool_calls),
+            )
+        ],
+        # An estimate (4 characters a token): these models read no tokens, but reports stay comparable.
+        usage=Usage(
+            prompt_tokens=prompt_chars // 4,
+            completion_tokens=completion_chars // 4,
+            total_tokens=(prompt_chars + completion_chars) // 4,
+        ),
+    )
+
+
+def _prompt_chars(messages: list[Any]) -> int:
+    return sum(len(json.dumps(m, default=str)) for m in messages)
+
+
+def call_message(call: Call, call_number: int) -> dict[str, Any]:
+    """The assistant message carrying the planner's decision."""
+    if call.name is None:
+        return {"role": "assistant", "content": call.text}
+    return {
+        "role": "assistant",
+        "content": None,
+        "tool_calls": [
+            {
+                "id": f"call_{call_number}",
+                "type": "function",
+                "function": {"name": call.name, "arguments": json.dumps(call.arguments)},
+            }
+        ],
+    }
+
+
+class ScriptedProvider(CustomLLM):
+    """`scripted/<variant>`: the planner's decision as a tool call."""
+
+    def completion(self, model: str, messages: list, *args: Any, **kwargs: Any) -> ModelResponse:
+        variant = model.split("/")[-1]
+        if variant not in SCRIPTED_MODELS:
+            raise litellm.BadRequestError(
+                message=f"unknown scripted model {model!r}; use one of "
+                + ", ".join(f"scripted/{v}" for v in SCRIPTED_MODELS),
+                model=model,
+                llm_provider="scripted",
+            )
+        params = kwargs.get("optional_params") or {}
+        seed = params.get("seed")
+        p = float(params.get("p", (params.get("extra_body") or {}).get("p", 0.3)))
+        calls_so_far = sum(
+            len(m.get("tool_calls") or []) for m in map(_plain, messages) if m.get("role") == "assistant"
+        )
+        call = decide(messages, variant, seed=seed, p=p)  # type: ignore[arg-type]
+        return _response(f"scripted/{variant}", call_message(call, calls_so_far + 1), _prompt_chars(messages))
+
+    async def acompletion(self, model: str, messages: list, *args: Any, **kwargs: Any) -> ModelResponse:  # type: ignore[override]
+        return self.completion(model, messages, *args, **kwargs)
+
+
+def _plain(message: Any) -> dict[str, Any]:
+    if isinstance(message, dict):
+        return message
+    return message.model_dump() if hasattr(message, "model_dump") else dict(message)
+
+
+@cache
+def _recorded_turns(path: str) -> list[dict[str, Any]]:
+    turns = [e.message for e in read_trace(Path(path)) if isinstance(e, ModelTurn)]
+    if not turns:
+        raise ValueError(f"{path}: the trace holds no model turns to replay")
+    return turns
+
+
+class ReplayProvider(CustomLLM):
+    """`replay/PATH.jsonl`: the N-th recorded assistant turn for the N-th model call of a run."""
+
+    def completion(self, model: str, messages: list, *args: Any, **kwargs: Any) -> ModelResponse:
+        path = model.split("/", 1)[1] if model.startswith("replay/") else model
+        try:
+            turns = _recorded_turns(path)
+        except FileNotFoundError:
+            raise litellm.BadRequestError(
+                message=f"replay: no trace file {path!r}", model=model, llm_provider="replay"
+            ) from None
+        index = sum(1 for m in map(_plain, messages) if m.get("role") == "assistant")
+        if index >= len(turns):
+            message: dict[str, Any] = {"role": "assistant", "content": "(the recorded run has no more turns)"}
+        else:
+            message = turns[index]
+        return _response(f"replay/{path}", message, _prompt_chars(messages))
+
+    async def acompletion(self, model: str, messages: list, *args: Any, **kwargs: Any) -> ModelResponse:  # type: ignore[override]
+        return self.completion(model, messages, *args, **kwargs)
+
+
+def register() -> None:
+    """Make `scripted/...` and `replay/...` model strings known to LiteLLM (idempotent)."""
+    known = {item["provider"] for item in litellm.custom_provider_map}
+    if "scripted" not in known:
+        litellm.custom_provider_map.append({"provider": "scripted", "custom_handler": ScriptedProvider()})
+    if "replay" not in known:
+        litellm.custom_provider_map.append({"provider": "replay", "custom_handler": ReplayProvider()})
+    from litellm.utils import custom_llm_setup
+
+    custom_llm_setup()

@@ -1,0 +1,113 @@
+"""Where trace events go: a JSONL file, the terminal (in the paper's [SYSTEM]/[TOOL] style), a list."""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+from pathlib import Path
+from typing import IO, Any
+
+from rich.console import Console
+from rich.markup import escape
+
+from robocog.shared.trace import (
+    ModelTurn,
+    Reinvoked,
+    RunFinished,
+    RunStarted,
+    ToolCall,
+    ToolResult,
+    TraceEvent,
+    Verdict,
+    dump_event,
+)
+
+
+class Trace:
+    """Collects a run's events; optionally appends them to a JSONL file and prints them live."""
+
+    def __init__(self, path: Path | None = None, *, console: Console | None = None, verbose: bool = False) -> None:
+        self.events: list[TraceEvent] = []
+        self.start = time.monotonic()
+        self.console = console
+        self.verbose = verbose
+        self._file: IO[str] | None = None
+        if path is not None:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            self._file = path.open("a", encoding="utf-8")
+
+    def now(self) -> float:
+        return round(time.monotonic() - self.start, 4)
+
+    def emit(self, event: TraceEvent) -> None:
+        self.events.append(event)
+        if self._file is not None:
+            self._file.write(dump_event(event) + "\n")
+            self._file.flush()
+        if self.console is not None:
+            self._print(event)
+
+    def close(self) -> None:
+        if self._file is not None:
+            self._file.close()
+            self._file = None
+
+    # --- the paper's log style ---------------------------------------------------------------------
+
+    def _line(self, tag: str, style: str, text: str) -> None:
+        assert self.console is not None
+        self.console.print(f"[{style}]\\[{tag}][/{style}] {escape(text)}", highlight=False, soft_wrap=True)
+
+    def _print(self, event: TraceEvent) -> None:
+        if isinstance(event, RunStarted):
+            self._line("SYSTEM", "bold dark_orange", f'Executing prompt: "{event.task}" with {event.model}')
+        elif isinstance(event, ModelTurn):
+            content = event.message.get("content")
+            if content:
+                self._line("MODEL", "bold magenta", str(content).strip())
+        elif isinstance(event, ToolCall):
+            args = ", ".join(f"{k}={v!r}" for k, v in (event.arguments or {}).items())
+            self._line(
+                "TOOL", "bold blue", f"{event.name}({args if event.arguments is not None else event.raw_arguments})"
+            )
+        elif isinstance(event, ToolResult):
+            text = _summarise(event)
+            self._line("TOOL-RESPONSE", "bold red" if event.is_error else "bold green", text)
+        elif isinstance(event, Reinvoked):
+            self._line("SYSTEM", "bold dark_orange", f"Re-invoking the agent ({event.invocation}): {event.reason}")
+        elif isinstance(event, Verdict):
+            word = "success" if event.success else "failure"
+            self._line("SYSTEM", "bold dark_orange", f"Test results for task {event.task_id}: {word} ({event.reason})")
+        elif isinstance(event, RunFinished):
+            believed = {True: "success", False: "failure", None: "none (the task was never ended)"}[
+                event.believed_success
+            ]
+            self._line(
+                "SYSTEM",
+                "bold dark_orange",
+                f"Believed: {believed}. {event.tool_calls} tool calls, {event.invocations} invocation(s), "
+                f"{event.wall_s:.2f} s." + (f" Error: {event.error}" if event.error else ""),
+            )
+
+
+def _summarise(event: ToolResult) -> str:
+    data: dict[str, Any] | None = event.structured
+    if data is None:
+        return event.content
+    message = data.get("message")
+    if event.name == "search_memory" and "results" in data:
+        lines = [str(message)] + [
+            f"  - {r['task_description']} -> {r['status']}: {r['summary']}" for r in data["results"]
+        ]
+        return "\n".join(lines)
+    if event.name == "view_scratchpad":
+        return f"{message}\n{data.get('content', '')}"
+    if message is not None:
+        return f"{data.get('status', '')}: {message}"
+    return json.dumps(data)
+
+
+def make_console(stream: IO[str] | None = None) -> Console:
+    """Coloured on a terminal, plain when piped."""
+    return Console(file=stream or sys.stdout, highlight=False, soft_wrap=True)

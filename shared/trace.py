@@ -1,0 +1,112 @@
+"""The run trace as data: one event per line of a JSONL file, each a pydantic model.
+
+A trace records everything an agent run did: the task, every model turn (with tokens, cost and
+latency when known), every tool call with its arguments and result, re-invocations, and how the
+run ended. `robocog run --trace FILE.jsonl` writes it; `replay/FILE.jsonl` replays its model turns.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, Field, TypeAdapter
+
+TRACE_VERSION = 1
+
+
+class _Event(BaseModel):
+    t: float = Field(description="seconds since the run started")
+
+
+class RunStarted(_Event):
+    type: Literal["run_started"] = "run_started"
+    version: int = TRACE_VERSION
+    task: str
+    model: str
+    server: str = Field(description="how the server was reached: the command line or the URL")
+    tools: list[str]
+    seed: int | None = None
+
+
+class ModelTurn(_Event):
+    """One model response: the assistant message as it was added to the conversation."""
+
+    type: Literal["model_turn"] = "model_turn"
+    invocation: int
+    step: int
+    message: dict[str, Any] = Field(description="the assistant message (role, content, tool_calls)")
+    latency_s: float
+    tokens_in: int = 0
+    tokens_out: int = 0
+    cost: float | None = None
+
+
+class ToolCall(_Event):
+    type: Literal["tool_call"] = "tool_call"
+    invocation: int
+    id: str
+    name: str
+    arguments: dict[str, Any] | None = Field(description="parsed arguments, None if they were not valid JSON")
+    raw_arguments: str
+
+
+class ToolResult(_Event):
+    type: Literal["tool_result"] = "tool_result"
+    invocation: int
+    id: str
+    name: str
+    is_error: bool
+    content: str = Field(description="the text the model was given")
+    structured: dict[str, Any] | None = None
+    latency_s: float
+
+
+class Reinvoked(_Event):
+    type: Literal["reinvoked"] = "reinvoked"
+    invocation: int
+    reason: str
+
+
+class Verdict(_Event):
+    type: Literal["verdict"] = "verdict"
+    task_id: str
+    success: bool
+    reason: str
+
+
+class RunFinished(_Event):
+    type: Literal["run_finished"] = "run_finished"
+    ended: bool = Field(description="the agent called end_task")
+    stopped: bool = Field(description="the agent never ended the task (a refusal) or the run broke off")
+    believed_success: bool | None = None
+    true_success: bool | None = None
+    invocations: int
+    tool_calls: int
+    tokens_in: int
+    tokens_out: int
+    cost: float | None = None
+    llm_latency_s: float
+    wall_s: float
+    error: str | None = None
+
+
+TraceEvent = Annotated[
+    RunStarted | ModelTurn | ToolCall | ToolResult | Reinvoked | Verdict | RunFinished, Field(discriminator="type")
+]
+_adapter: TypeAdapter[TraceEvent] = TypeAdapter(TraceEvent)
+
+
+def parse_event(line: str) -> TraceEvent:
+    """One JSONL line back into its event model."""
+    return _adapter.validate_json(line)
+
+
+def read_trace(path: Path) -> list[TraceEvent]:
+    """Every event of a trace file."""
+    return [parse_event(line) for line in path.read_text(encoding="utf-8").splitlines() if line.strip()]
+
+
+def dump_event(event: BaseModel) -> str:
+    return json.dumps(event.model_dump(mode="json"), ensure_ascii=False)
