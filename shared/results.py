@@ -25,6 +25,7 @@ ErrorCode = Literal[
     "position_occupied",
     "not_graspable",
     "place_failed",
+    "interrupted",
 ]
 
 

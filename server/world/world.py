@@ -105,8 +105,6 @@ class World:
         self.seed = seed
         self.steps = 0
         self._grasp: tuple[str, int] | None = None  # (object name, constraint id)
-        self._build()
-        self._initial_state = self.client.saveState()
         self.reset(seed=seed, randomize=randomize)
 
     # --- construction --------------------------------------------------------------------------
@@ -241,16 +239,16 @@ class World:
 
         With `randomize`, every graspable object starts on a distinct place position drawn (with
         a random yaw) from the world's one generator, reseeded by `seed` when given.
+
+        The simulation is rebuilt from nothing (about 0.1 s), so a reset world is exactly a new
+        world: no sleeping state or contact cache of the past episode carries over.
         """
         if seed is not None:
             self.seed = seed
             self.np_random = np.random.default_rng(seed)
-        self._release()
-        self.client.restoreState(self._initial_state)
-        start = self.scene.location(self.scene.robot_start)
-        self.robot.set_base(start.x, start.y, 0.0)
-        self.robot.set_joints(self.robot_spec.arm.rest_pose)
-        self.steps = 0
+        self._grasp = None
+        self.client.resetSimulation()
+        self._build()
         if randomize:
             graspable = [o for o in self.objects.values() if o.spec.graspable]
             keys = list(self.positions)
@@ -260,6 +258,7 @@ class World:
             for obj, index in zip(graspable, chosen, strict=True):
                 self._put_on(obj, self.positions[keys[int(index)]], float(self.np_random.uniform(-math.pi, math.pi)))
             self._settle()
+        self.steps = 0
         return self.state()
 
     def close(self) -> None:
@@ -476,8 +475,8 @@ class World:
             if should_stop is not None and should_stop():
                 return MoveResult(
                     status="failure",
-                    error="no_path",
-                    message=f"Stopped at {a} before reaching {goal}.",
+                    error="interrupted",
+                    message=f"Stopped at {a} before reaching {goal}: the motion was interrupted.",
                     location=a,
                     path=path[: i + 1],
                     distance_m=round(driven, 3),
@@ -597,7 +596,8 @@ class World:
                 status="failure",
                 error="unknown_location",
                 message=f"There is no location called {location!r}."
-                + (f" Did you mean {_quote_list(suggestions)}?" if suggestions else ""),
+                + (f" Did you mean {_quote_list(suggestions)}?" if suggestions else "")
+                + f" Known locations: {', '.join(self.map.names)}.",
                 suggestions=suggestions,
                 object=held,
                 location=location,

@@ -1,0 +1,248 @@
+"""The scene schema and loader: the shipped household, malformed files, and scenes extended as data."""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+from typing import Any
+
+import pytest
+import yaml
+
+from robocog.server.world.world import DEFAULT_SCENE, World
+from robocog.shared.scene import Scene, SceneError, load_scene
+
+PAPER_LOCATIONS = {
+    "Front Door": (0.0, 0.0),
+    "Hallway Area Door": (3.0, 0.0),
+    "Kitchen Door": (3.0, 2.0),
+    "Living Room Door": (3.0, -2.0),
+    "Living Room": (4.0, -4.0),
+    "Living Room TV": (8.0, -4.5),
+    "Kitchen Area Left": (3.0, 4.0),
+    "Kitchen Shelf": (1.0, 4.85),
+    "Kitchen Table": (6.0, 5.0),
+}
+PAPER_EDGES = {
+    frozenset(e)
+    for e in [
+        ("Hallway Area Door", "Front Door"),
+        ("Hallway Area Door", "Kitchen Door"),
+        ("Hallway Area Door", "Living Room Door"),
+        ("Kitchen Area Left", "Kitchen Door"),
+        ("Kitchen Area Left", "Kitchen Shelf"),
+        ("Kitchen Area Left", "Kitchen Table"),
+        ("Living Room", "Living Room Door"),
+        ("Living Room", "Living Room TV"),
+    ]
+}
+
+
+@pytest.fixture(scope="module")
+def household() -> dict[str, Any]:
+    data = yaml.safe_load(DEFAULT_SCENE.read_text(encoding="utf-8"))
+    assert isinstance(data, dict)
+    return data
+
+
+def write_scene(tmp_path: Path, data: Any, name: str = "scene.yaml") -> Path:
+    path = tmp_path / name
+    path.write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
+    return path
+
+
+def scene_error(path: Path) -> str:
+    with pytest.raises(SceneError) as info:
+        load_scene(path)
+    return str(info.value)
+
+
+# --- the shipped scene -------------------------------------------------------------------------
+
+
+def test_household_scene_has_the_papers_locations_and_edges() -> None:
+    scene = load_scene(DEFAULT_SCENE)
+    assert {loc.name: (loc.x, loc.y) for loc in scene.locations} == PAPER_LOCATIONS
+    assert {frozenset(e) for e in scene.edges} == PAPER_EDGES
+    assert scene.robot_start == "Front Door"
+
+
+def test_household_scene_has_the_papers_place_positions_and_objects() -> None:
+    scene = load_scene(DEFAULT_SCENE)
+    assert {(p.location, p.name) for p in scene.place_positions} == {
+        ("Kitchen Shelf", "top"),
+        ("Kitchen Shelf", "middle"),
+        ("Kitchen Shelf", "bottom"),
+        ("Kitchen Table", "middle"),
+        ("Front Door", "floor"),
+        ("Hallway Area Door", "floor"),
+        ("Living Room", "floor"),
+        ("Kitchen Area Left", "floor"),
+    }
+    starts = {o.name: (o.start.location, o.start.position) for o in scene.objects}
+    assert starts["cube"] == ("Front Door", "floor")
+    assert starts["box"] == ("Living Room", "floor")
+    assert starts["mug"] == ("Kitchen Table", "middle")
+    tv = next(o for o in scene.objects if o.name == "tv")
+    assert not tv.graspable
+    assert tv.start.pose is not None
+
+
+# --- malformed scenes --------------------------------------------------------------------------
+
+
+def test_edge_to_unknown_location_is_a_scene_error(tmp_path: Path, household: dict[str, Any]) -> None:
+    data = copy.deepcopy(household)
+    data["edges"].append(["Front Door", "Attic"])
+    path = write_scene(tmp_path, data)
+    message = scene_error(path)
+    assert str(path) in message
+    assert f"edges[{len(data['edges']) - 1}]" in message
+    assert "'Attic' is not a location" in message
+
+
+def test_missing_locations_is_a_scene_error(tmp_path: Path, household: dict[str, Any]) -> None:
+    data = copy.deepcopy(household)
+    del data["locations"]
+    path = write_scene(tmp_path, data)
+    message = scene_error(path)
+    assert str(path) in message
+    assert "locations" in message
+    assert "required" in message.lower()
+
+
+def test_invalid_yaml_is_a_scene_error(tmp_path: Path) -> None:
+    path = tmp_path / "broken.yaml"
+    path.write_text("name: broken\nlocations: [{name: Front Door, x: 0, y: 0}\n  edges: ]\n", encoding="utf-8")
+    message = scene_error(path)
+    assert str(path) in message
+    assert "not valid YAML" in message
+
+
+def test_object_starting_on_a_missing_position_is_a_scene_error(tmp_path: Path, household: dict[str, Any]) -> None:
+    data = copy.deepcopy(household)
+    cube = next(o for o in data["objects"] if o["name"] == "cube")
+    cube["start"] = {"location": "Front Door", "position": "shelf"}
+    path = write_scene(tmp_path, data)
+    message = scene_error(path)
+    assert str(path) in message
+    assert "objects[0] (cube)" in message
+    assert "Front Door / shelf" in message and "is not a place position" in message
+
+
+def test_wrong_field_type_names_the_field(tmp_path: Path, household: dict[str, Any]) -> None:
+    data = copy.deepcopy(household)
+    data["locations"][2]["x"] = "three"
+    path = write_scene(tmp_path, data)
+    message = scene_error(path)
+    assert str(path) in message
+    assert "locations.2.x" in message
+    assert "number" in message
+
+
+def test_misspelt_field_is_a_scene_error(tmp_path: Path, household: dict[str, Any]) -> None:
+    data = copy.deepcopy(household)
+    data["objects"][0]["colour"] = data["objects"][0].pop("color")
+    path = write_scene(tmp_path, data)
+    message = scene_error(path)
+    assert "objects.0.colour" in message
+    assert "Extra inputs are not permitted" in message
+
+
+def test_unknown_robot_start_is_a_scene_error(tmp_path: Path, household: dict[str, Any]) -> None:
+    data = copy.deepcopy(household)
+    data["robot_start"] = "Garage"
+    message = scene_error(write_scene(tmp_path, data))
+    assert "robot_start 'Garage' is not a location" in message
+
+
+def test_place_position_on_unknown_support_is_a_scene_error(tmp_path: Path, household: dict[str, Any]) -> None:
+    data = copy.deepcopy(household)
+    data["place_positions"][0]["support"] = "kitchen_shelf/roof"
+    message = scene_error(write_scene(tmp_path, data))
+    assert "place_positions[0]" in message
+    assert "kitchen_shelf/roof" in message
+
+
+def test_duplicate_location_names_are_a_scene_error(tmp_path: Path, household: dict[str, Any]) -> None:
+    data = copy.deepcopy(household)
+    data["locations"].append({"name": "Front Door", "x": 9.0, "y": 9.0})
+    message = scene_error(write_scene(tmp_path, data))
+    assert "locations: duplicate names ['Front Door']" in message
+
+
+def test_scene_that_is_not_a_mapping_is_a_scene_error(tmp_path: Path) -> None:
+    path = tmp_path / "list.yaml"
+    path.write_text("- just\n- a list\n", encoding="utf-8")
+    message = scene_error(path)
+    assert str(path) in message
+
+
+def test_missing_scene_file_is_a_scene_error(tmp_path: Path) -> None:
+    path = tmp_path / "nowhere.yaml"
+    message = scene_error(path)
+    assert str(path) in message and "file not found" in message
+
+
+def test_world_from_a_malformed_scene_path_raises_scene_error(tmp_path: Path, household: dict[str, Any]) -> None:
+    data = copy.deepcopy(household)
+    data["edges"].append(["Front Door", "Attic"])
+    path = write_scene(tmp_path, data)
+    with pytest.raises(SceneError, match="Attic"):
+        World(path)
+
+
+# --- scenes extended as data -------------------------------------------------------------------
+
+
+def extended_scene(household: dict[str, Any]) -> dict[str, Any]:
+    """The household plus a coat rack in the hallway: one location, one edge, one position, one object."""
+    data = copy.deepcopy(household)
+    data["locations"].append({"name": "Coat Rack", "x": 1.5, "y": -1.5})
+    data["edges"].append(["Coat Rack", "Front Door"])
+    data["place_positions"].append(
+        {"location": "Coat Rack", "name": "floor", "center": [1.5, -2.1], "size": [0.4, 0.4], "support": "floor"}
+    )
+    data["objects"].append(
+        {
+            "name": "ball",
+            "shape": "cylinder",
+            "size": [0.07, 0.07, 0.07],
+            "mass": 0.1,
+            "color": [0.9, 0.8, 0.1, 1.0],
+            "start": {"location": "Coat Rack", "position": "floor"},
+        }
+    )
+    return data
+
+
+def test_extended_scene_loads(tmp_path: Path, household: dict[str, Any]) -> None:
+    scene = load_scene(write_scene(tmp_path, extended_scene(household)))
+    assert isinstance(scene, Scene)
+    assert scene.location("Coat Rack").x == 1.5
+    assert ("Coat Rack", "Front Door") in scene.edges
+    assert [o.name for o in scene.objects][-1] == "ball"
+
+
+def test_world_sees_an_object_added_to_the_scene(tmp_path: Path, household: dict[str, Any]) -> None:
+    with World(write_scene(tmp_path, extended_scene(household))) as world:
+        ball = world.placement("ball")
+        assert (ball.state, ball.location, ball.position) == ("on_position", "Coat Rack", "floor")
+        views = {v.name: v for v in world.look_around().locations}
+        assert views["Coat Rack"].objects == ["ball"]
+        assert views["Coat Rack"].neighbours == ["Front Door"]
+        assert "Coat Rack" in views["Front Door"].neighbours
+        assert [(p.name, p.occupied_by) for p in views["Coat Rack"].place_positions] == [("floor", "ball")]
+        # The original objects are where they were.
+        assert world.placement("cube").position == "floor"
+
+
+def test_robot_can_fetch_an_object_added_to_the_scene(tmp_path: Path, household: dict[str, Any]) -> None:
+    with World(write_scene(tmp_path, extended_scene(household))) as world:
+        moved = world.move_to("coat rack")
+        assert moved.status == "success", moved.message
+        assert moved.path == ["Front Door", "Coat Rack"]
+        grabbed = world.grab("ball")
+        assert grabbed.status == "success", grabbed.message
+        assert world.move_to("Front Door").status == "success"
+        assert world.holding == "ball"
