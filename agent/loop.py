@@ -41,6 +41,7 @@ class AgentSettings:
     max_steps: int = 60
     timeout_s: float = 180.0
     retries: int = 4
+    backoff_s: float = 2.0
     api_base: str | None = None
     seed: int | None = None
     temperature: float | None = None
@@ -136,7 +137,7 @@ async def complete(settings: AgentSettings, messages: list[dict[str, Any]], tool
         except transient as exc:
             if attempt == settings.retries:
                 raise AgentError(f"the model service kept failing ({type(exc).__name__}): {exc}") from exc
-            await asyncio.sleep(min(30.0, 2.0**attempt) * (0.5 + random.random()))
+            await asyncio.sleep(min(30.0, settings.backoff_s * 2.0**attempt) * (0.5 + random.random()))
     raise AssertionError("unreachable")
 
 
