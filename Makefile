@@ -8,7 +8,7 @@ export LITELLM_LOCAL_MODEL_COST_MAP := True
 export ANONYMIZED_TELEMETRY := False
 export PYTHONDONTWRITEBYTECODE := 1
 
-.PHONY: help demo test bench lint format server inspector clean
+.PHONY: help demo world-demo test bench lint format server inspector clean
 
 help: ## Show this help
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-10s %s\n", $$1, $$2}'
@@ -19,7 +19,12 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e ".[dev]"
 	@touch $(STAMP)
 
-demo: $(STAMP) ## Run the paper's T1 then T2 and print each action and the ground-truth verdicts
+demo: $(STAMP) ## The scripted planner does T1 then T2 through MCP; prints the trace and the ground truth
+	@rm -rf .demo-memory
+	$(BIN)/robocog run T1 T2 --model scripted/planner --data-dir .demo-memory --trace .demo-trace.jsonl
+	@echo "trace written to .demo-trace.jsonl"
+
+world-demo: $(STAMP) ## T1 then T2 as fixed action sequences on the world itself (no MCP, no model)
 	$(BIN)/python -m robocog.server.world.demo
 
 test: $(STAMP) ## Run the test suite (offline; no API key needed)

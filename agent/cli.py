@@ -115,7 +115,13 @@ def _preload_litellm() -> threading.Thread:
 
     def load() -> None:
         with contextlib.suppress(Exception):  # the real import later reports any failure
-            import litellm  # noqa: F401
+            import litellm
+
+            from robocog.agent.providers import register
+
+            register()
+            # One offline call warms LiteLLM's lazy machinery (a third of a second on the first call).
+            litellm.completion(model="scripted/refuser", messages=[{"role": "user", "content": "warm up"}])
 
     thread = threading.Thread(target=load, daemon=True)
     thread.start()
@@ -204,6 +210,8 @@ def _ask() -> str | None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    from robocog.agent.connection import ServerError, leaf_message
+
     try:
         if args.command == "run":
             return asyncio.run(_run_tasks(args, args.tasks))
@@ -212,6 +220,12 @@ def main(argv: Sequence[str] | None = None) -> int:
             return asyncio.run(_run_tasks(args, None))
     except KeyboardInterrupt:
         return 130
+    except ServerError as exc:
+        print(f"robocog: {exc}", file=sys.stderr)
+        return 2
+    except (OSError, BaseExceptionGroup) as exc:
+        print(f"robocog: cannot reach the robot server: {leaf_message(exc)}", file=sys.stderr)
+        return 2
     return 2
 
 

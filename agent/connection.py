@@ -5,15 +5,17 @@ The client never imports `robocog.server`: it speaks MCP to whatever the command
 
 from __future__ import annotations
 
+import json
 import os
 import shlex
 import shutil
 import sys
+import tempfile
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 from mcp import Client
 from mcp.client.stdio import StdioServerParameters
@@ -69,14 +71,27 @@ class Robot:
         return next((tid for tid, text in self.tasks.items() if " ".join(text.split()).casefold() == wanted), None)
 
 
+class ServerError(RuntimeError):
+    """The robot server could not be started or reached."""
+
+
+def leaf_message(exc: BaseException) -> str:
+    """The innermost message of an exception (task groups wrap the real one)."""
+    while isinstance(exc, BaseExceptionGroup) and exc.exceptions:
+        exc = exc.exceptions[0]
+    return f"{type(exc).__name__}: {exc}"
+
+
 @asynccontextmanager
 async def connect(spec: ServerSpec) -> AsyncIterator[Robot]:
-    """Connect, list the tools, fetch the system prompt and the task catalogue."""
-    import json
+    """Connect, list the tools, fetch the system prompt and the task catalogue.
 
-    from mcp_types import Implementation
+    A spawned server's stderr goes to a log file, so its start-up chatter stays off the terminal;
+    if the server fails, the error quotes the end of that log.
+    """
+    from mcp.client.stdio import stdio_client
 
-    info = Implementation(name="robocog", version=__version__)
+    log: IO[str] | None = None
     if spec.url:
         target: Any = spec.url
     else:
@@ -86,8 +101,30 @@ async def connect(spec: ServerSpec) -> AsyncIterator[Robot]:
             **spec.env,
         }
         command, *args = spec.command
-        target = StdioServerParameters(command=command, args=[*args, *spec.extra_args], env=env)
-    async with Client(target, client_info=info) as client:
+        params = StdioServerParameters(command=command, args=[*args, *spec.extra_args], env=env)
+        log = tempfile.NamedTemporaryFile("w+", prefix="robocog-server-", suffix=".log", delete=False)  # noqa: SIM115
+        target = stdio_client(params, errlog=log)
+    try:
+        async with _session(target, spec) as robot:
+            yield robot
+    except Exception as exc:
+        if log is None or isinstance(exc, ServerError):
+            raise
+        log.flush()
+        tail = "\n".join(Path(log.name).read_text(encoding="utf-8", errors="replace").splitlines()[-15:])
+        where = f"; the end of its log:\n{tail}" if tail.strip() else " (it wrote nothing to stderr)"
+        raise ServerError(f"the robot server `{spec.label}` failed: {leaf_message(exc)}{where}") from exc
+    finally:
+        if log is not None:
+            log.close()
+            Path(log.name).unlink(missing_ok=True)
+
+
+@asynccontextmanager
+async def _session(target: Any, spec: ServerSpec) -> AsyncIterator[Robot]:
+    from mcp_types import Implementation
+
+    async with Client(target, client_info=Implementation(name="robocog", version=__version__)) as client:
         tools = (await client.list_tools()).tools
         prompt = await client.get_prompt("robot_system")
         system_prompt = "\n".join(getattr(m.content, "text", "") for m in prompt.messages)

@@ -12,6 +12,7 @@ import time
 from typing import Any
 
 from robocog.server.config import MemoryLabels, SessionConfig
+from robocog.server.memory.embedding import embed
 from robocog.server.memory.episodic import EpisodicMemory
 from robocog.server.memory.scratchpad import Scratchpad
 from robocog.server.world.tasks import evaluate, task_catalogue
@@ -47,6 +48,9 @@ class RobotSession:
         self.tasks: dict[str, TaskSpec] = task_catalogue()
         self.episode = 0
         self._start_episode()
+        # Load the embedding model now (checksum, ONNX session, tokenizer): the first search_memory
+        # of an episode then costs milliseconds, not a third of a second.
+        embed(["warm up"])
 
     def close(self) -> None:
         self.world.close()
