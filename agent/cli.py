@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import asyncio
-import contextlib
 import json
 import os
 import sys
@@ -79,6 +78,15 @@ def build_parser() -> argparse.ArgumentParser:
     )
     _add_model(chat)
     _add_connection(chat)
+    ev = sub.add_parser("eval", help="run a study (the paper's protocol) from a YAML config")
+    ev.add_argument("config", type=Path, help="study config, e.g. assets/eval/scripted.yaml")
+    ev.add_argument("--out", type=Path, help="results file (JSONL); default: the config's `out`")
+    ev.add_argument("--workers", type=int, help="parallel workers, each with its own server (default: config)")
+    ev.add_argument("--resume", action="store_true", help="continue an interrupted run")
+    ev.add_argument("--trials", type=int, help="override the config's number of trials")
+    ev.add_argument("--memory-iterations", type=int, help="override the config's memory iterations")
+    ev.add_argument("--server-cmd", help="command line that starts a server over stdio (default: robocog-server)")
+    ev.add_argument("--quiet", action="store_true", help="no progress bar")
     return parser
 
 
@@ -113,17 +121,9 @@ def _server_spec(args: argparse.Namespace) -> Any:
 def _preload_litellm() -> threading.Thread:
     """Import LiteLLM (seconds) on a thread while the server starts."""
 
-    def load() -> None:
-        with contextlib.suppress(Exception):  # the real import later reports any failure
-            import litellm
+    from robocog.agent.loop import warm_up_litellm
 
-            from robocog.agent.providers import register
-
-            register()
-            # One offline call warms LiteLLM's lazy machinery (a third of a second on the first call).
-            litellm.completion(model="scripted/refuser", messages=[{"role": "user", "content": "warm up"}])
-
-    thread = threading.Thread(target=load, daemon=True)
+    thread = threading.Thread(target=warm_up_litellm, daemon=True)
     thread.start()
     return thread
 
@@ -208,6 +208,66 @@ def _ask() -> str | None:
     return text
 
 
+def _eval(args: argparse.Namespace) -> int:
+    import shlex
+
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
+    from robocog.agent.evaluation import EvalError, run_eval, summary_line
+    from robocog.shared.evaluation import load_config
+    from robocog.shared.scene import SceneError
+
+    try:
+        config = load_config(args.config)
+    except SceneError as exc:
+        print(f"robocog: {exc}", file=sys.stderr)
+        return 2
+    updates = {k: v for k, v in (("trials", args.trials), ("memory_iterations", args.memory_iterations)) if v}
+    config = config.model_copy(update=updates)
+    if args.out is not None:
+        out = args.out
+    elif config.out is not None:
+        out = (args.config.parent / config.out).resolve()
+    else:
+        print("robocog: no results file: give --out or set `out` in the config", file=sys.stderr)
+        return 2
+    server = shlex.split(args.server_cmd) if args.server_cmd else None
+    with Progress(
+        TextColumn("[bold]{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn("{task.fields[rate]}"),
+        TimeElapsedColumn(),
+        TimeRemainingColumn(),
+        disable=args.quiet,
+    ) as bar:
+        task = bar.add_task(config.name, total=None, rate="")
+
+        def show(p: object) -> None:
+            done, total = getattr(p, "done", 0), getattr(p, "total", 0)
+            wins, attempts = getattr(p, "successes", 0), getattr(p, "attempts", 0)
+            rate = f"success {wins}/{attempts} ({wins / attempts:.0%})" if attempts else ""
+            bar.update(task, completed=done, total=total, rate=rate)
+
+        try:
+            rows = asyncio.run(
+                run_eval(config, out, workers=args.workers, resume=args.resume, server_command=server, on_progress=show)
+            )
+        except EvalError as exc:
+            print(f"robocog: {exc}", file=sys.stderr)
+            return 2
+    print(f"{len(rows)} attempts in {out}")
+    print(summary_line(rows))
+    return 0
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     from robocog.agent.connection import ServerError, leaf_message
@@ -218,6 +278,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.command == "chat":
             print("Type a task (or a task id such as T1); an empty line or /quit ends the session.")
             return asyncio.run(_run_tasks(args, None))
+        if args.command == "eval":
+            return _eval(args)
     except KeyboardInterrupt:
         return 130
     except ServerError as exc:

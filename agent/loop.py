@@ -91,6 +91,19 @@ def reminder(task: str) -> str:
     )
 
 
+def warm_up_litellm() -> None:
+    """Import LiteLLM and make one offline call: the first call pays for its lazy machinery."""
+    import contextlib
+
+    with contextlib.suppress(Exception):  # a real failure shows on the first real call
+        import litellm
+
+        from robocog.agent.providers import register
+
+        register()
+        litellm.completion(model="scripted/refuser", messages=[{"role": "user", "content": "warm up"}])
+
+
 def check_credentials(model: str, api_base: str | None) -> None:
     """Raise `AgentError` naming the environment variable a cloud model needs and lacks."""
     if model.split("/", 1)[0] in ("scripted", "replay", "ollama", "ollama_chat") or api_base:

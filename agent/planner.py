@@ -299,7 +299,19 @@ def next_action(belief: Belief, goals: dict[str, Goal], skip: set[str]) -> Call 
     if unknown:
         return Call("look_around")
     ready = [o for o, g in pending.items() if _target_position(belief, g, reserved - {(g.location, g.position or "")})]
-    choice = min(ready or list(pending), key=lambda o: (hops.get(belief.where[o][0], 99), list(goals).index(o)))
+    if ready:
+        choice = min(ready, key=lambda o: (hops.get(belief.where[o][0], 99), list(goals).index(o)))
+    else:
+        # Every goal is taken. A goal held by an object with no goal of its own: clear that one away.
+        blockers = [
+            b
+            for g in pending.values()
+            if g.position
+            and (b := belief.occupant.get((g.location, g.position))) not in (None, *pending)
+            and b in belief.where
+        ]
+        pool = blockers or list(pending)
+        choice = min(pool, key=lambda o: (hops.get(belief.where[o][0], 99), o not in goals, o))
     where = belief.where[choice][0]
     if belief.location != where:
         return Call("move_to", {"location": where})
@@ -352,8 +364,6 @@ def decide(messages: list[Any], variant: Variant = "planner", *, seed: int | Non
         )
     family, goals = understood
     sloppy = variant == "overconfident" and random.Random(f"{seed}:{task}").random() < p
-    if sloppy and goals:
-        goals = dict(list(goals.items())[:-1])  # forgets the last object, and will not check
     if "add_to_scratchpad" not in calls:
         plan = "; ".join(f"{o} -> {g.location}" + (f" / {g.position}" if g.position else "") for o, g in goals.items())
         note = f" Known not graspable: {', '.join(sorted(avoid))}." if avoid else ""
@@ -371,6 +381,11 @@ def decide(messages: list[Any], variant: Variant = "planner", *, seed: int | Non
         return Call("end_task", {"status": "failure", "description": task, "summary": summary})
     if belief.stale:
         return Call("look_around")
+    if sloppy and goals:
+        # The overconfident instrument skips the object it would have started with, and will
+        # report success without checking.
+        hops = first.hops_from(first.location)
+        skip = skip | {min(goals, key=lambda o: (hops.get(first.where.get(o, ("",))[0], 99), list(goals).index(o)))}
     action = next_action(belief, goals, skip)
     if action is not None:
         return action
@@ -378,6 +393,9 @@ def decide(messages: list[Any], variant: Variant = "planner", *, seed: int | Non
     if not sloppy and calls[-1] != "look_around":
         return Call("look_around")
     achieved = all(_satisfied(belief, o, g) for o, g in goals.items() if o not in skip)
+    if sloppy:
+        summary = _summary(task, belief, goals, set(), ungraspable, len(history.calls) + 1)
+        return Call("end_task", {"status": "success", "description": task, "summary": summary})
     # Objects that cannot be grasped are not items to put away; for a swap or a bring they are the task.
     gave_up = skip & goals.keys() if family != "put_away" else set()
     status = "success" if (achieved and not gave_up) or sloppy else "failure"

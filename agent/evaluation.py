@@ -1,0 +1,305 @@
+"""`robocog eval`: the paper's protocol, with parallel workers, streaming results and resume.
+
+For each model and trial (a *unit*): memory iteration 0 starts with an empty memory and later
+iterations keep what earlier ones stored; each iteration resets the world and runs the tasks in
+order, each only if the one before truly succeeded (T2 after T1); a task never ended within the
+invocation limit is a refusal. Ground truth comes from the server's `check_task` after the attempt.
+
+Each worker owns one server process (eval profile) with its own data directory, and clears the
+memory between units, so trials never share memory except across the iterations of one trial.
+Every attempt is appended to the results file as soon as it finishes. `--resume` keeps the units
+already complete, drops the rows of a unit that was cut off, and runs that unit again from scratch.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import hashlib
+import json
+import re
+import shutil
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from robocog.agent.connection import Robot, ServerError, ServerSpec, connect, leaf_message
+from robocog.agent.loop import AgentSettings, finish, run_episode, warm_up_litellm
+from robocog.agent.trace import Trace
+from robocog.shared import __version__
+from robocog.shared.evaluation import AttemptRow, EvalConfig, ModelSpec
+from robocog.shared.trace import Verdict
+
+
+class EvalError(RuntimeError):
+    """The study cannot run as configured (say, results exist and --resume was not given)."""
+
+
+def slug(text: str) -> str:
+    return re.sub(r"[^A-Za-z0-9._-]+", "_", text).strip("_") or "model"
+
+
+def model_seed(seed: int, trial: int, iteration: int, task: str) -> int:
+    """A seed for the model per attempt (independent draws for stochastic models)."""
+    digest = hashlib.sha256(f"{seed}:{trial}:{iteration}:{task}".encode()).digest()
+    return int.from_bytes(digest[:4], "big")
+
+
+def read_rows(path: Path) -> list[AttemptRow]:
+    if not path.exists():
+        return []
+    rows = []
+    for line in path.read_text(encoding="utf-8").splitlines():
+        if line.strip():
+            rows.append(AttemptRow.model_validate_json(line))
+    return rows
+
+
+def unit_complete(rows: list[AttemptRow], config: EvalConfig) -> bool:
+    """A unit is complete when its last memory iteration's chain of tasks has closed."""
+    last = [r for r in rows if r.memory_iteration == config.memory_iterations - 1]
+    if not last:
+        return False
+    final = last[-1]
+    return final.task == config.tasks[-1] or not final.true_success
+
+
+@dataclass
+class Progress:
+    """Counts for the progress display."""
+
+    total: int
+    done: int = 0
+    successes: int = 0
+    attempts: int = 0
+    on_change: Callable[[Progress], None] | None = None
+
+    def advance(self, n: int = 1, row: AttemptRow | None = None) -> None:
+        self.done += n
+        if row is not None:
+            self.attempts += 1
+            self.successes += int(row.true_success)
+        if self.on_change is not None:
+            self.on_change(self)
+
+
+@dataclass
+class Runner:
+    config: EvalConfig
+    out: Path
+    server_command: list[str] | None = None
+    progress: Progress = field(default_factory=lambda: Progress(total=0))
+    _lock: asyncio.Lock = field(default_factory=asyncio.Lock)
+
+    @property
+    def traces_dir(self) -> Path:
+        return self.out.with_name(self.out.stem + ".traces")
+
+    @property
+    def work_dir(self) -> Path:
+        return self.out.with_name(self.out.stem + ".work")
+
+    async def write(self, row: AttemptRow) -> None:
+        async with self._lock:
+            with self.out.open("a", encoding="utf-8") as f:
+                f.write(row.model_dump_json() + "\n")
+        self.progress.advance(row=row)
+
+    def spec(self, worker: int) -> ServerSpec:
+        data = self.work_dir / f"worker-{worker}"
+        args = ["--profile", "eval", "--data-dir", str(data), "--memory-namespace", "eval", *self.config.server_args]
+        if self.server_command:
+            return ServerSpec(command=list(self.server_command), extra_args=args)
+        return ServerSpec(extra_args=args)
+
+    # --- one unit: a model and a trial, through all memory iterations ----------------------------
+
+    async def run_unit(self, robot: Robot, spec: ModelSpec, trial: int, start_iteration: int) -> int | None:
+        """Run the unit from `start_iteration`; returns the iteration to continue from if the server broke."""
+        cfg = self.config
+        seed = cfg.seed + trial
+        if start_iteration == 0:
+            await robot.client.call_tool("clear_memory", {})
+        for iteration in range(start_iteration, cfg.memory_iterations):
+            await _control(robot, "reset_world", seed=seed, randomize=cfg.randomize, memory_labels=cfg.memory_labels)
+            for index, task_id in enumerate(cfg.tasks):
+                try:
+                    row = await self.attempt(robot, spec, trial, iteration, task_id)
+                except ServerBroke as broke:
+                    await self.write(broke.row)
+                    self.progress.advance(len(cfg.tasks) - index - 1)
+                    return iteration + 1
+                await self.write(row)
+                if not row.true_success:
+                    self.progress.advance(len(cfg.tasks) - index - 1)
+                    break
+        return None
+
+    async def attempt(self, robot: Robot, spec: ModelSpec, trial: int, iteration: int, task_id: str) -> AttemptRow:
+        cfg = self.config
+        prompt = robot.tasks.get(task_id)
+        if prompt is None:
+            raise EvalError(f"the server has no task {task_id!r} (it has {', '.join(robot.tasks)})")
+        trace_path = self.traces_dir / slug(spec.name) / f"trial-{trial}" / f"iter-{iteration}-{task_id}.jsonl"
+        trace_path.unlink(missing_ok=True)
+        trace = Trace(trace_path)
+        settings = AgentSettings(
+            model=spec.model,
+            max_invocations=cfg.max_invocations,
+            max_steps=cfg.max_steps,
+            timeout_s=cfg.timeout_s,
+            api_base=spec.api_base,
+            seed=model_seed(cfg.seed, trial, iteration, task_id),
+            params=dict(spec.params),
+        )
+        base = {
+            "model": spec.name,
+            "trial": trial,
+            "memory_iteration": iteration,
+            "task": task_id,
+            "seed": cfg.seed + trial,
+            "memory_labels": cfg.memory_labels,
+            "trace": str(trace_path.relative_to(self.out.parent)),
+            "version": __version__,
+            "study": cfg.name,
+            "model_id": spec.model,
+        }
+        try:
+            result = await run_episode(
+                robot.client, prompt, settings, trace, system_prompt=robot.system_prompt, tools=robot.tools
+            )
+            checked = await _control(robot, "check_task", task_id=task_id)
+        except Exception as exc:  # the server or the transport died: this attempt fails, not the study
+            trace.close()
+            raise ServerBroke(
+                AttemptRow(
+                    **base,
+                    invocations=0,
+                    tool_calls=0,
+                    believed_success=None,
+                    true_success=False,
+                    agreement=False,
+                    stopped=True,
+                    tokens_in=0,
+                    tokens_out=0,
+                    cost=None,
+                    llm_latency_s=0.0,
+                    wall_s=0.0,
+                    error=f"server failure: {leaf_message(exc)}",
+                )
+            ) from exc
+        verdict = Verdict(t=trace.now(), task_id=task_id, success=bool(checked["success"]), reason=checked["reason"])
+        finish(trace, result, verdict)
+        trace.close()
+        believed = result.believed_success
+        return AttemptRow(
+            **base,
+            invocations=result.invocations,
+            tool_calls=result.tool_calls,
+            believed_success=believed,
+            true_success=verdict.success,
+            agreement=(believed is True) == verdict.success,
+            stopped=result.stopped,
+            tokens_in=result.tokens_in,
+            tokens_out=result.tokens_out,
+            cost=result.cost,
+            llm_latency_s=result.llm_latency_s,
+            wall_s=result.wall_s,
+            reason=verdict.reason,
+            error=result.error,
+        )
+
+    # --- workers ---------------------------------------------------------------------------------
+
+    async def worker(self, index: int, queue: asyncio.Queue[tuple[ModelSpec, int, int]]) -> None:
+        while not queue.empty():
+            try:
+                async with connect(self.spec(index)) as robot:
+                    while not queue.empty():
+                        spec, trial, start = queue.get_nowait()
+                        resume_at = await self.run_unit(robot, spec, trial, start)
+                        if resume_at is not None:
+                            if resume_at < self.config.memory_iterations:
+                                queue.put_nowait((spec, trial, resume_at))
+                            break  # reconnect: a new server, the same memory on disk
+            except ServerError as exc:
+                raise EvalError(f"worker {index}: {exc}") from exc
+
+
+class ServerBroke(Exception):
+    def __init__(self, row: AttemptRow) -> None:
+        super().__init__(row.error)
+        self.row = row
+
+
+async def _control(robot: Robot, tool: str, **arguments: Any) -> dict[str, Any]:
+    result = await robot.client.call_tool(tool, arguments)
+    if result.is_error or not isinstance(result.structured_content, dict):
+        text = " ".join(getattr(b, "text", "") for b in result.content)
+        raise RuntimeError(f"{tool} failed: {text}")
+    return result.structured_content
+
+
+def plan_units(config: EvalConfig, out: Path, resume: bool) -> list[tuple[ModelSpec, int, int]]:
+    """The units still to run; with `resume`, drops the rows of units that were cut off."""
+    rows = read_rows(out)
+    if rows and not resume:
+        raise EvalError(f"{out} already holds {len(rows)} results: use --resume to continue, or another --out")
+    by_unit: dict[tuple[str, int], list[AttemptRow]] = {}
+    for row in rows:
+        by_unit.setdefault(row.unit, []).append(row)
+    complete = {unit for unit, unit_rows in by_unit.items() if unit_complete(unit_rows, config)}
+    kept = [r for r in rows if r.unit in complete]
+    if len(kept) != len(rows):
+        tmp = out.with_suffix(out.suffix + ".tmp")
+        tmp.write_text("".join(r.model_dump_json() + "\n" for r in kept), encoding="utf-8")
+        tmp.replace(out)
+    return [
+        (spec, trial, 0)
+        for trial in range(config.trials)
+        for spec in config.models
+        if (spec.name, trial) not in complete
+    ]
+
+
+async def run_eval(
+    config: EvalConfig,
+    out: Path,
+    *,
+    workers: int | None = None,
+    resume: bool = False,
+    server_command: list[str] | None = None,
+    on_progress: Callable[[Progress], None] | None = None,
+) -> list[AttemptRow]:
+    """Run the study; returns every row of the results file."""
+    out.parent.mkdir(parents=True, exist_ok=True)
+    pending = plan_units(config, out, resume)
+    per_unit = config.memory_iterations * len(config.tasks)
+    runner = Runner(config, out, server_command, Progress(total=len(pending) * per_unit, on_change=on_progress))
+    queue: asyncio.Queue[tuple[ModelSpec, int, int]] = asyncio.Queue()
+    for unit in pending:
+        queue.put_nowait(unit)
+    n = max(1, min(workers or config.workers, len(pending) or 1))
+    if pending:
+        # LiteLLM's import and first call (seconds) happen while the servers start.
+        await asyncio.to_thread(warm_up_litellm)
+        async with asyncio.TaskGroup() as tg:
+            for i in range(n):
+                tg.create_task(runner.worker(i, queue))
+    shutil.rmtree(runner.work_dir, ignore_errors=True)
+    return read_rows(out)
+
+
+def summary_line(rows: list[AttemptRow]) -> str:
+    by: dict[tuple[str, str], list[AttemptRow]] = {}
+    for r in rows:
+        by.setdefault((r.model, r.task), []).append(r)
+    parts = []
+    for (model, task), group in sorted(by.items()):
+        wins = sum(r.true_success for r in group)
+        parts.append(f"{model} {task}: {wins}/{len(group)} true successes")
+    return "; ".join(parts)
+
+
+def dump_rows(rows: list[AttemptRow]) -> str:
+    return "\n".join(json.dumps(r.model_dump(mode="json")) for r in rows)

@@ -1,0 +1,92 @@
+"""The evaluation's data: the config of a study (`assets/eval/*.yaml`) and one result row per attempt."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from robocog.shared.scene import load_yaml_model
+
+
+class ModelSpec(BaseModel):
+    """A model under evaluation: a LiteLLM model string and how to call it."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    model: str = Field(description="LiteLLM model string, e.g. gpt-4.1 or scripted/planner")
+    label: str | None = Field(default=None, description="name in the results and reports (default: model)")
+    api_base: str | None = Field(default=None, description="base URL of an OpenAI-compatible server")
+    params: dict[str, Any] = Field(default={}, description="extra completion parameters, e.g. temperature")
+
+    @property
+    def name(self) -> str:
+        return self.label or self.model
+
+
+class EvalConfig(BaseModel):
+    """A study: models x trials x memory iterations, each iteration a chain of tasks in one world."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    name: str = "study"
+    models: list[ModelSpec] = Field(min_length=1)
+    tasks: list[str] = Field(default=["T1", "T2"], min_length=1, description="task ids, run in order")
+    trials: int = Field(default=10, ge=1)
+    memory_iterations: int = Field(default=4, ge=1, description="iterations 0..N-1; 0 starts with empty memory")
+    seed: int = Field(default=0, description="trial t uses seed + t for the world and the model")
+    randomize: bool = Field(default=False, description="seeded random start positions (the paper: static)")
+    memory_labels: Literal["believed", "verified"] = Field(
+        default="believed", description="'believed' (the paper) or 'verified' (the ground truth labels memory)"
+    )
+    workers: int = Field(default=1, ge=1, description="parallel workers, each with its own server")
+    max_invocations: int = Field(default=10, ge=1)
+    max_steps: int = Field(default=60, ge=1)
+    timeout_s: float = Field(default=180.0, gt=0)
+    out: str | None = Field(default=None, description="results file (JSONL), relative to the config file")
+    server_args: list[str] = Field(default=[], description="extra robocog-server arguments, e.g. --scene")
+
+    @model_validator(mode="after")
+    def _unique_names(self) -> EvalConfig:
+        names = [m.name for m in self.models]
+        if len(set(names)) != len(names):
+            raise ValueError(f"models: two models share a name ({names}); give them distinct labels")
+        return self
+
+
+def load_config(path: Path) -> EvalConfig:
+    """Load and validate a study config; errors name the file and the field."""
+    return load_yaml_model(path, EvalConfig)
+
+
+class AttemptRow(BaseModel):
+    """One task attempt, as written to the results file (field names fixed by the protocol)."""
+
+    model: str
+    trial: int
+    memory_iteration: int
+    task: str
+    invocations: int
+    tool_calls: int
+    believed_success: bool | None = Field(description="end_task's status; None when the task was never ended")
+    true_success: bool
+    agreement: bool = Field(description="believed success equals true success (a never-ended task believes nothing)")
+    stopped: bool = Field(description="the agent never called end_task (a refusal), or the attempt broke off")
+    tokens_in: int
+    tokens_out: int
+    cost: float | None
+    llm_latency_s: float
+    wall_s: float
+    seed: int
+    memory_labels: Literal["believed", "verified"]
+    trace: str | None = Field(description="the attempt's trace file, relative to the results file")
+    version: str
+    reason: str = Field(default="", description="the ground-truth verdict's reason")
+    error: str | None = Field(default=None, description="why the attempt broke off, if it did")
+    study: str = ""
+    model_id: str = Field(default="", description="the LiteLLM model string")
+
+    @property
+    def unit(self) -> tuple[str, int]:
+        return self.model, self.trial
