@@ -87,6 +87,10 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--memory-iterations", type=int, help="override the config's memory iterations")
     ev.add_argument("--server-cmd", help="command line that starts a server over stdio (default: robocog-server)")
     ev.add_argument("--quiet", action="store_true", help="no progress bar")
+    rep = sub.add_parser("report", help="tables, figures and a CSV from a results file")
+    rep.add_argument("results", type=Path, help="results file written by robocog eval")
+    rep.add_argument("--out", type=Path, required=True, help="directory for report.md, the figures and the CSV")
+    rep.add_argument("--title", default=None, help="the report's title")
     return parser
 
 
@@ -268,6 +272,21 @@ def _eval(args: argparse.Namespace) -> int:
     return 0
 
 
+def _report(args: argparse.Namespace) -> int:
+    from pydantic import ValidationError
+
+    from robocog.agent.report import load_rows, render
+
+    try:
+        rows = load_rows(args.results)
+        path = render(rows, args.out, title=args.title or f"robocog evaluation: {args.results.name}")
+    except (FileNotFoundError, ValueError, ValidationError) as exc:
+        print(f"robocog: {args.results}: {exc}", file=sys.stderr)
+        return 2
+    print(f"report: {path}")
+    return 0
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     from robocog.agent.connection import ServerError, leaf_message
@@ -280,6 +299,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return asyncio.run(_run_tasks(args, None))
         if args.command == "eval":
             return _eval(args)
+        if args.command == "report":
+            return _report(args)
     except KeyboardInterrupt:
         return 130
     except ServerError as exc:
