@@ -151,6 +151,8 @@ async def complete(settings: AgentSettings, messages: list[dict[str, Any]], tool
             if attempt == settings.retries:
                 raise AgentError(f"the model service kept failing ({type(exc).__name__}): {exc}") from exc
             await asyncio.sleep(min(30.0, settings.backoff_s * 2.0**attempt) * (0.5 + random.random()))
+        except Exception as exc:  # a bad request, an unknown model...: not worth retrying
+            raise AgentError(f"the model call failed ({type(exc).__name__}): {exc}") from exc
     raise AssertionError("unreachable")
 
 
