@@ -1,0 +1,357 @@
+"""Episodic memory: past episodes in a ChromaDB collection, searched by task similarity.
+
+Embedded by default (a ``PersistentClient`` in a data directory); with ``url`` a Chroma server that
+many robots can share. Each namespace is its own collection. Vectors are computed here with an
+offline embedding function and handed to Chroma, so Chroma never loads its own (downloading) one.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import threading
+import uuid
+from collections.abc import Iterable, Mapping, Sequence
+from datetime import UTC, datetime, timedelta
+from pathlib import Path
+from types import TracebackType
+from typing import Any, NotRequired, Self, TypedDict, cast
+from urllib.parse import urlsplit
+
+import chromadb
+import numpy as np
+from chromadb.api import ClientAPI
+from chromadb.api.models.Collection import Collection
+from chromadb.api.shared_system_client import SharedSystemClient
+from chromadb.api.types import Documents, EmbeddingFunction
+from chromadb.config import Settings
+
+from robocog.server.memory.embedding import MiniLMEmbeddingFunction
+from robocog.shared.memory import MemoryHit, MemoryRecord, Status
+
+#: Prefix of every collection robocog creates; the namespace follows it.
+COLLECTION_PREFIX = "robocog-"
+#: Distances closer than this count as a tie (broken newest first).
+TIE_EPSILON = 1e-6
+# Chroma's collection-name rule (3-63 chars, alphanumeric ends, [A-Za-z0-9._-] inside, no "..").
+_NAMESPACE_RE = re.compile(r"^[A-Za-z0-9](?:[A-Za-z0-9._-]*[A-Za-z0-9])?$")
+_MAX_NAMESPACE = 63 - len(COLLECTION_PREFIX)
+_WRITE_BATCH = 1024
+_STATUSES: tuple[Status, ...] = ("success", "failure")
+
+
+class EpisodeInput(TypedDict):
+    """One record to write with :meth:`EpisodicMemory.add_many` (the arguments of ``add``)."""
+
+    task_description: str
+    believed_status: Status
+    summary: str
+    model: NotRequired[str | None]
+    tool_calls: NotRequired[int | None]
+    duration_s: NotRequired[float | None]
+    verified_status: NotRequired[Status | None]
+    episode: NotRequired[str | None]
+
+
+def collection_name(namespace: str) -> str:
+    """The Chroma collection that holds ``namespace``; ``ValueError`` if the namespace is invalid."""
+    if (
+        not isinstance(namespace, str)
+        or not 1 <= len(namespace) <= _MAX_NAMESPACE
+        or not _NAMESPACE_RE.match(namespace)
+        or ".." in namespace
+    ):
+        raise ValueError(
+            f"invalid memory namespace {namespace!r}: use 1-{_MAX_NAMESPACE} characters from "
+            "letters, digits, '.', '_' and '-', starting and ending with a letter or digit, "
+            "with no '..' (e.g. 'default' or 'kitchen-robot-1')"
+        )
+    return COLLECTION_PREFIX + namespace
+
+
+def parse_chroma_url(url: str) -> tuple[str, int, bool]:
+    """Split ``http(s)://host[:port]`` into ``(host, port, ssl)``; ``ValueError`` if malformed.
+
+    The port defaults to 8000 (Chroma's) for http and 443 for https.
+    """
+    example = "expected a Chroma server URL like 'http://localhost:8000' or 'https://chroma.example:443'"
+    try:
+        parts = urlsplit(url.strip())
+        port = parts.port
+    except (ValueError, AttributeError) as e:
+        raise ValueError(f"malformed Chroma URL {url!r}: {e}; {example}") from e
+    if parts.scheme not in ("http", "https"):
+        raise ValueError(f"malformed Chroma URL {url!r}: scheme must be http or https; {example}")
+    if not parts.hostname:
+        raise ValueError(f"malformed Chroma URL {url!r}: no host; {example}")
+    if parts.username or parts.password or parts.path not in ("", "/") or parts.query or parts.fragment:
+        raise ValueError(
+            f"malformed Chroma URL {url!r}: only scheme, host and port are allowed "
+            f"(no credentials, path, query or fragment); {example}"
+        )
+    ssl = parts.scheme == "https"
+    return parts.hostname, port if port is not None else (443 if ssl else 8000), ssl
+
+
+def default_data_dir() -> Path:
+    """Where embedded memory lives when no ``data_dir`` is given."""
+    import platformdirs
+
+    return Path(platformdirs.user_data_dir("robocog")) / "memory"
+
+
+_clock_lock = threading.Lock()
+_last_created: datetime | None = None
+
+
+def _now() -> datetime:
+    """Current UTC time, strictly increasing within the process (so order is always defined)."""
+    global _last_created
+    with _clock_lock:
+        now = datetime.now(UTC)
+        if _last_created is not None and now <= _last_created:
+            now = _last_created + timedelta(microseconds=1)
+        _last_created = now
+        return now
+
+
+def _check_status(name: str, value: object, *, optional: bool = False) -> None:
+    if value is None and optional:
+        return
+    if value not in _STATUSES:
+        raise ValueError(f"{name} must be 'success' or 'failure', got {value!r}")
+
+
+class EpisodicMemory:
+    """Past episodes of one namespace, searchable by how similar their task is to a new one."""
+
+    def __init__(
+        self,
+        data_dir: Path | None = None,
+        *,
+        url: str | None = None,
+        namespace: str = "default",
+        embedding_function: EmbeddingFunction[Documents] | None = None,
+    ) -> None:
+        """Open (creating if needed) the namespace's collection.
+
+        Args:
+            data_dir: directory of the embedded database (default: the user data dir).
+            url: ``http(s)://host:port`` of a Chroma server instead of the embedded database.
+            namespace: which memory to use; each namespace is a separate collection.
+            embedding_function: a Chroma embedding function (default: offline MiniLM).
+        """
+        if data_dir is not None and url is not None:
+            raise ValueError("give either data_dir (embedded memory) or url (a Chroma server), not both")
+        name = collection_name(namespace)
+        self.namespace = namespace
+        self._ef: EmbeddingFunction[Documents] = (
+            MiniLMEmbeddingFunction() if embedding_function is None else embedding_function
+        )
+        os.environ["ANONYMIZED_TELEMETRY"] = "False"
+        settings = Settings(anonymized_telemetry=False)
+        self._client: ClientAPI
+        if url is not None:
+            host, port, ssl = parse_chroma_url(url)
+            try:
+                self._client = chromadb.HttpClient(host=host, port=port, ssl=ssl, settings=settings)
+            except Exception as e:
+                raise ConnectionError(f"cannot reach the Chroma server at {url}: {e}") from e
+            self.location = url
+        else:
+            path = Path(data_dir) if data_dir is not None else default_data_dir()
+            path.mkdir(parents=True, exist_ok=True)
+            self._client = chromadb.PersistentClient(path=str(path), settings=settings)
+            self.location = str(path)
+        self._collection: Collection = self._client.get_or_create_collection(
+            name,
+            configuration={"hnsw": {"space": "cosine"}},
+            embedding_function=self._ef,
+        )
+
+    # -- writing ------------------------------------------------------------------------------
+
+    def add(
+        self,
+        task_description: str,
+        believed_status: Status,
+        summary: str,
+        *,
+        model: str | None = None,
+        tool_calls: int | None = None,
+        duration_s: float | None = None,
+        verified_status: Status | None = None,
+        episode: str | None = None,
+    ) -> MemoryRecord:
+        """Store one episode and return the record written."""
+        entry: EpisodeInput = {
+            "task_description": task_description,
+            "believed_status": believed_status,
+            "summary": summary,
+            "model": model,
+            "tool_calls": tool_calls,
+            "duration_s": duration_s,
+            "verified_status": verified_status,
+            "episode": episode,
+        }
+        return self.add_many([entry])[0]
+
+    def add_many(self, entries: Iterable[EpisodeInput]) -> list[MemoryRecord]:
+        """Store several episodes at once (embedded in batches); later entries count as newer."""
+        records: list[MemoryRecord] = []
+        for entry in entries:
+            text = entry["task_description"]
+            if not isinstance(text, str) or not text.strip():
+                raise ValueError("task_description must be a non-empty description of the task")
+            _check_status("believed_status", entry["believed_status"])
+            _check_status("verified_status", entry.get("verified_status"), optional=True)
+            records.append(
+                MemoryRecord(
+                    id=uuid.uuid4().hex,
+                    created_at=_now().isoformat(timespec="microseconds"),
+                    **cast(Mapping[str, Any], entry),
+                )
+            )
+        for start in range(0, len(records), _WRITE_BATCH):
+            batch = records[start : start + _WRITE_BATCH]
+            documents = [r.task_description for r in batch]
+            self._collection.add(
+                ids=[r.id for r in batch],
+                documents=documents,
+                embeddings=self._embed(documents),
+                metadatas=[_to_metadata(r) for r in batch],
+            )
+        return records
+
+    def set_verified(self, record_id: str, status: Status | None) -> MemoryRecord:
+        """Record the ground-truth outcome of an episode (None clears it); return the updated record."""
+        _check_status("status", status, optional=True)
+        record = self.get(record_id)
+        if record is None:
+            raise KeyError(f"no memory record with id {record_id!r} in namespace {self.namespace!r}")
+        # Chroma merges metadata on update; a None value deletes the key.
+        self._collection.update(ids=[record.id], metadatas=[{"verified_status": status}])
+        return record.model_copy(update={"verified_status": status})
+
+    def clear(self) -> None:
+        """Delete every record of this namespace (other namespaces are untouched)."""
+        ids = self._collection.get(include=[])["ids"]
+        step = max(1, min(self._client.get_max_batch_size(), 5000))
+        for start in range(0, len(ids), step):
+            self._collection.delete(ids=ids[start : start + step])
+
+    # -- reading ------------------------------------------------------------------------------
+
+    def search(self, query: str, k: int = 3) -> list[MemoryHit]:
+        """The ``k`` records whose task is closest to ``query``, closest first.
+
+        Equal distances (within ``TIE_EPSILON``) are ordered newest first.
+        """
+        if not isinstance(query, str) or not query.strip():
+            raise ValueError("query must be a non-empty task description, e.g. 'put the apple in the fridge'")
+        if k < 1:
+            raise ValueError(f"k must be at least 1, got {k}")
+        vector = self._embed_query(query)
+        # Fetch a little more than k; widen while the k-th hit ties with the last one fetched, so
+        # the newest of tied records can be chosen. Fewer hits than asked means all were fetched.
+        n = k + 2
+        while True:
+            res = self._collection.query(
+                query_embeddings=vector, n_results=n, include=["documents", "metadatas", "distances"]
+            )
+            hits = [
+                MemoryHit(record=_to_record(i, d, m), distance=max(0.0, float(dist)))
+                for i, d, m, dist in zip(
+                    res["ids"][0],
+                    (res["documents"] or [[]])[0],
+                    (res["metadatas"] or [[]])[0],
+                    (res["distances"] or [[]])[0],
+                    strict=True,
+                )
+            ]
+            if len(hits) < n or hits[-1].distance - hits[k - 1].distance > TIE_EPSILON:
+                break
+            n *= 4
+        return _order(hits)[:k]
+
+    def get(self, record_id: str) -> MemoryRecord | None:
+        """The record with this id, or None."""
+        res = self._collection.get(ids=[record_id], include=["documents", "metadatas"])
+        if not res["ids"]:
+            return None
+        return _to_record(res["ids"][0], (res["documents"] or [""])[0], (res["metadatas"] or [{}])[0])
+
+    def count(self) -> int:
+        """Number of records in this namespace."""
+        return self._collection.count()
+
+    def records(self) -> list[MemoryRecord]:
+        """All records of this namespace, newest first."""
+        res = self._collection.get(include=["documents", "metadatas"])
+        recs = [
+            _to_record(i, d, m)
+            for i, d, m in zip(res["ids"], res["documents"] or [], res["metadatas"] or [], strict=True)
+        ]
+        recs.sort(key=lambda r: datetime.fromisoformat(r.created_at), reverse=True)
+        return recs
+
+    # -- lifecycle ----------------------------------------------------------------------------
+
+    def close(self) -> None:
+        """Release the client (for embedded memory, the database files once no one else uses them)."""
+        client = self._client
+        # Chroma's HTTP client (and its internal admin client) never close their connection pools:
+        # close each pool whose shared system is gone after close(), i.e. that no one else uses.
+        owners = [client, getattr(client, "_admin_client", None)]
+        pools = [
+            (getattr(o, "_identifier", None), getattr(getattr(o, "_server", None), "_session", None)) for o in owners
+        ]
+        close = getattr(client, "close", None)
+        if callable(close):
+            close()
+        for identifier, pool in pools:
+            close_pool = getattr(pool, "close", None)
+            if callable(close_pool) and identifier not in SharedSystemClient._identifier_to_system:
+                close_pool()
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        self.close()
+
+    # -- helpers ------------------------------------------------------------------------------
+
+    def _embed(self, documents: list[str]) -> list[np.ndarray]:
+        return [np.asarray(v, dtype=np.float32) for v in self._ef(documents)]
+
+    def _embed_query(self, query: str) -> list[np.ndarray]:
+        return [np.asarray(v, dtype=np.float32) for v in self._ef.embed_query([query])]
+
+
+def _to_metadata(record: MemoryRecord) -> dict[str, str | int | float]:
+    """Chroma metadata of a record: everything but id and document; None values are omitted."""
+    data = record.model_dump(exclude={"id", "task_description"}, exclude_none=True)
+    return cast(dict[str, str | int | float], data)
+
+
+def _to_record(record_id: str, document: str | None, metadata: Mapping[str, Any] | None) -> MemoryRecord:
+    # Keys a newer robocog may have added are ignored, so a shared server can serve mixed versions.
+    known = {k: v for k, v in (metadata or {}).items() if k in MemoryRecord.model_fields}
+    return MemoryRecord.model_validate({**known, "id": record_id, "task_description": document or ""})
+
+
+def _order(hits: Sequence[MemoryHit]) -> list[MemoryHit]:
+    """Sort by distance; within a run of ties (consecutive distances within epsilon), newest first."""
+    by_distance = sorted(hits, key=lambda h: h.distance)
+    out: list[MemoryHit] = []
+    group: list[MemoryHit] = []
+    for hit in by_distance:
+        if group and hit.distance - group[0].distance > TIE_EPSILON:
+            out.extend(sorted(group, key=lambda h: datetime.fromisoformat(h.record.created_at), reverse=True))
+            group = []
+        group.append(hit)
+    out.extend(sorted(group, key=lambda h: datetime.fromisoformat(h.record.created_at), reverse=True))
+    return out
