@@ -3,10 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import contextlib
 import os
 import sys
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 
 DESCRIPTION = """\
@@ -72,30 +71,15 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-@contextlib.contextmanager
-def _stdout_to_stderr() -> Iterator[None]:
-    """Send fd 1 to stderr for a while: pybullet prints its build banner on stdout at import."""
-    sys.stdout.flush()
-    saved = os.dup(1)
-    os.dup2(2, 1)
-    try:
-        yield
-    finally:
-        sys.stdout.flush()
-        from robocog.server.world.world import flush_c_stdio
-
-        flush_c_stdio()
-        os.dup2(saved, 1)
-        os.close(saved)
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    with _stdout_to_stderr():
-        import pybullet  # noqa: F401  (its banner must not reach the protocol stream)
+    from robocog.server.world.cstdio import stdout_to_stderr
+
+    with stdout_to_stderr():
+        import pybullet  # noqa: F401
 
     from robocog.server.app import build_server
-    from robocog.server.memory.episodic import collection_name, parse_chroma_url
+    from robocog.server.memory.names import collection_name, parse_chroma_url
     from robocog.server.session import SessionConfig
     from robocog.server.world.world import WorldError
     from robocog.shared.scene import SceneError, load_scene
@@ -135,6 +119,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         pass
     return 0
+
+
+def run() -> None:
+    """Console-script entry point: once the server has shut down cleanly (the lifespan closed the
+    world and the memory), leave at once instead of waiting for the interpreter to tear down
+    ChromaDB's and onnxruntime's threads (about 0.4 s that a client would spend waiting)."""
+    code = main()
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code)
 
 
 if __name__ == "__main__":

@@ -8,7 +8,6 @@ offline embedding function and handed to Chroma, so Chroma never loads its own (
 from __future__ import annotations
 
 import os
-import re
 import threading
 import uuid
 from collections.abc import Iterable, Mapping, Sequence
@@ -16,7 +15,6 @@ from datetime import UTC, datetime, timedelta
 from pathlib import Path
 from types import TracebackType
 from typing import Any, NotRequired, Self, TypedDict, cast
-from urllib.parse import urlsplit
 
 import chromadb
 import numpy as np
@@ -27,15 +25,11 @@ from chromadb.api.types import Documents, EmbeddingFunction
 from chromadb.config import Settings
 
 from robocog.server.memory.embedding import MiniLMEmbeddingFunction
+from robocog.server.memory.names import collection_name, default_data_dir, parse_chroma_url
 from robocog.shared.memory import MemoryHit, MemoryRecord, Status
 
-#: Prefix of every collection robocog creates; the namespace follows it.
-COLLECTION_PREFIX = "robocog-"
 #: Distances closer than this count as a tie (broken newest first).
 TIE_EPSILON = 1e-6
-# Chroma's collection-name rule (3-63 chars, alphanumeric ends, [A-Za-z0-9._-] inside, no "..").
-_NAMESPACE_RE = re.compile(r"^[A-Za-z0-9](?:[A-Za-z0-9._-]*[A-Za-z0-9])?$")
-_MAX_NAMESPACE = 63 - len(COLLECTION_PREFIX)
 _WRITE_BATCH = 1024
 _STATUSES: tuple[Status, ...] = ("success", "failure")
 
@@ -51,53 +45,6 @@ class EpisodeInput(TypedDict):
     duration_s: NotRequired[float | None]
     verified_status: NotRequired[Status | None]
     episode: NotRequired[str | None]
-
-
-def collection_name(namespace: str) -> str:
-    """The Chroma collection that holds ``namespace``; ``ValueError`` if the namespace is invalid."""
-    if (
-        not isinstance(namespace, str)
-        or not 1 <= len(namespace) <= _MAX_NAMESPACE
-        or not _NAMESPACE_RE.match(namespace)
-        or ".." in namespace
-    ):
-        raise ValueError(
-            f"invalid memory namespace {namespace!r}: use 1-{_MAX_NAMESPACE} characters from "
-            "letters, digits, '.', '_' and '-', starting and ending with a letter or digit, "
-            "with no '..' (e.g. 'default' or 'kitchen-robot-1')"
-        )
-    return COLLECTION_PREFIX + namespace
-
-
-def parse_chroma_url(url: str) -> tuple[str, int, bool]:
-    """Split ``http(s)://host[:port]`` into ``(host, port, ssl)``; ``ValueError`` if malformed.
-
-    The port defaults to 8000 (Chroma's) for http and 443 for https.
-    """
-    example = "expected a Chroma server URL like 'http://localhost:8000' or 'https://chroma.example:443'"
-    try:
-        parts = urlsplit(url.strip())
-        port = parts.port
-    except (ValueError, AttributeError) as e:
-        raise ValueError(f"malformed Chroma URL {url!r}: {e}; {example}") from e
-    if parts.scheme not in ("http", "https"):
-        raise ValueError(f"malformed Chroma URL {url!r}: scheme must be http or https; {example}")
-    if not parts.hostname:
-        raise ValueError(f"malformed Chroma URL {url!r}: no host; {example}")
-    if parts.username or parts.password or parts.path not in ("", "/") or parts.query or parts.fragment:
-        raise ValueError(
-            f"malformed Chroma URL {url!r}: only scheme, host and port are allowed "
-            f"(no credentials, path, query or fragment); {example}"
-        )
-    ssl = parts.scheme == "https"
-    return parts.hostname, port if port is not None else (443 if ssl else 8000), ssl
-
-
-def default_data_dir() -> Path:
-    """Where embedded memory lives when no ``data_dir`` is given."""
-    import platformdirs
-
-    return Path(platformdirs.user_data_dir("robocog")) / "memory"
 
 
 _clock_lock = threading.Lock()

@@ -8,7 +8,6 @@ could have avoided). Where an object is comes from its pose and contacts, not fr
 from __future__ import annotations
 
 import contextlib
-import ctypes
 import functools
 import itertools
 import math
@@ -23,6 +22,7 @@ import pybullet_data
 from pybullet_utils.bullet_client import BulletClient
 
 from robocog.assets import ASSETS_DIR
+from robocog.server.world.cstdio import stdout_to_stderr
 from robocog.server.world.navigation import SemanticMap, closest, resolve
 from robocog.server.world.robot import Robot
 from robocog.shared.results import (
@@ -45,12 +45,6 @@ DEFAULT_SCENE = ASSETS_DIR / "scenes" / "household.yaml"
 ProgressFn = Callable[[float, float, str], None]
 #: Polled between path segments; True stops a motion at the location just reached.
 StopFn = Callable[[], bool]
-
-
-def flush_c_stdio() -> None:
-    """Flush libc's stdio buffers, so text C code printed goes out now, where fd 1 points now."""
-    with contextlib.suppress(OSError, AttributeError):
-        ctypes.CDLL(None).fflush(None)
 
 
 class WorldError(RuntimeError):
@@ -111,17 +105,14 @@ class World:
 
     @staticmethod
     def _connect(gui: bool) -> BulletClient:
-        if gui:
-            if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
-                raise WorldError(
-                    "the PyBullet GUI needs a display, and none is set (DISPLAY is empty); "
-                    "run headless (the default) or start an X server such as Xvfb"
-                )
-            client = BulletClient(connection_mode=pybullet.GUI)
-        else:
-            client = BulletClient(connection_mode=pybullet.DIRECT)
+        if gui and not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
+            raise WorldError(
+                "the PyBullet GUI needs a display, and none is set (DISPLAY is empty); "
+                "run headless (the default) or start an X server such as Xvfb"
+            )
+        with stdout_to_stderr():
+            client = BulletClient(connection_mode=pybullet.GUI if gui else pybullet.DIRECT)
         client.setAdditionalSearchPath(pybullet_data.getDataPath())
-        flush_c_stdio()  # PyBullet's C code printf()s on connect; don't leave it buffered for later
         return client
 
     def _build(self) -> None:

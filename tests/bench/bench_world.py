@@ -6,13 +6,10 @@ T1 sequence median <= 0.25 s, build + reset median <= 0.3 s, episode / bare-step
 
 from __future__ import annotations
 
-import contextlib
 import json
-import os
 import statistics
-import sys
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 
 from robocog.server.world.demo import T1_SEQUENCE, T2_SEQUENCE, run_sequence
 from robocog.server.world.world import World
@@ -26,20 +23,6 @@ BARE_RUNS = 5
 TARGET_T1_S = 0.25
 TARGET_BUILD_RESET_S = 0.3
 TARGET_STEP_RATIO = 1.5
-
-
-@contextlib.contextmanager
-def _c_stdout_to_stderr() -> Iterator[None]:
-    """PyBullet's C code prints to fd 1 on connect; keep stdout for the JSON report."""
-    sys.stdout.flush()
-    saved = os.dup(1)
-    try:
-        os.dup2(2, 1)
-        yield
-    finally:
-        sys.stdout.flush()
-        os.dup2(saved, 1)
-        os.close(saved)
 
 
 def _timed(fn: Callable[[], object]) -> float:
@@ -173,8 +156,7 @@ def _measure() -> dict[str, float | int | bool]:
 
 def run() -> dict[str, float | int | bool]:
     """Measure the world; a flat dict of rounded numbers (and whether each target is met)."""
-    with _c_stdout_to_stderr():
-        return _measure()
+    return _measure()
 
 
 if __name__ == "__main__":

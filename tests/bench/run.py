@@ -12,6 +12,8 @@ import sys
 import time
 from pathlib import Path
 
+from robocog.server.world.cstdio import stdout_to_stderr
+
 HERE = Path(__file__).resolve().parent
 
 
@@ -21,6 +23,13 @@ def main() -> int:
     args = parser.parse_args()
     wanted = {n.strip() for n in args.only.split(",") if n.strip()}
     figures: dict[str, object] = {}
+    with stdout_to_stderr():  # C code (PyBullet) prints on stdout; stdout is for the JSON
+        collect(wanted, figures)
+    print(json.dumps(figures, indent=2))
+    return 0
+
+
+def collect(wanted: set[str], figures: dict[str, object]) -> None:
     for path in sorted(HERE.glob("bench_*.py")):
         name = path.stem.removeprefix("bench_")
         if wanted and name not in wanted:
@@ -33,8 +42,6 @@ def main() -> int:
         print(f"bench: {name} ...", file=sys.stderr, flush=True)
         figures.update(module.run())
         figures[f"{name}.bench_wall_s"] = round(time.perf_counter() - start, 2)
-    print(json.dumps(figures, indent=2))
-    return 0
 
 
 if __name__ == "__main__":

@@ -1,0 +1,34 @@
+"""Keeping C code's stdout off Python's stdout (an MCP stdio stream, or a JSON report).
+
+PyBullet prints from C: a banner when it is imported, `argv[0]=` when a client connects. This
+module imports nothing of PyBullet, so callers can guard the import itself.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import os
+import sys
+from collections.abc import Iterator
+
+
+def flush_c_stdio() -> None:
+    """Flush libc's stdio buffers, so text C code printed goes out now, where fd 1 points now."""
+    with contextlib.suppress(OSError, AttributeError):
+        ctypes.CDLL(None).fflush(None)
+
+
+@contextlib.contextmanager
+def stdout_to_stderr() -> Iterator[None]:
+    """Point fd 1 at stderr for a while. PyBullet's C code prints on stdout (a banner at import,
+    `argv[0]=` on connect); stdout may be an MCP stdio stream or a JSON report."""
+    sys.stdout.flush()
+    saved = os.dup(1)
+    os.dup2(2, 1)
+    try:
+        yield
+    finally:
+        flush_c_stdio()
+        os.dup2(saved, 1)
+        os.close(saved)
