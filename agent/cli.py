@@ -12,8 +12,6 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-os.environ.setdefault("LITELLM_LOCAL_MODEL_COST_MAP", "True")
-
 DEFAULT_MODEL = "scripted/planner"
 
 EPILOG = """\
@@ -132,13 +130,12 @@ def _preload_litellm() -> threading.Thread:
     return thread
 
 
-async def _run_tasks(args: argparse.Namespace, tasks: Sequence[str] | None) -> int:
+async def _run_tasks(args: argparse.Namespace, tasks: Sequence[str] | None, loader: threading.Thread) -> int:
     from robocog.agent.connection import connect
     from robocog.agent.loop import AgentError, AgentSettings, check_credentials, finish, run_episode
     from robocog.agent.trace import Trace, make_console
     from robocog.shared.trace import Verdict
 
-    loader = _preload_litellm()
     settings = AgentSettings(
         model=args.model,
         max_invocations=args.max_invocations,
@@ -289,14 +286,15 @@ def _report(args: argparse.Namespace) -> int:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    loader = _preload_litellm() if args.command in ("run", "chat") else None  # seconds: start at once
     from robocog.agent.connection import ServerError, leaf_message
 
     try:
         if args.command == "run":
-            return asyncio.run(_run_tasks(args, args.tasks))
+            return asyncio.run(_run_tasks(args, args.tasks, loader))  # type: ignore[arg-type]
         if args.command == "chat":
             print("Type a task (or a task id such as T1); an empty line or /quit ends the session.")
-            return asyncio.run(_run_tasks(args, None))
+            return asyncio.run(_run_tasks(args, None, loader))  # type: ignore[arg-type]
         if args.command == "eval":
             return _eval(args)
         if args.command == "report":
@@ -312,5 +310,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     return 2
 
 
+def run() -> None:
+    """Console-script entry point: exit as soon as the work is done and written (traces and results
+    are closed by then), instead of waiting for LiteLLM's logging worker to wind down (about 2 s)."""
+    code = main()
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code)
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    run()

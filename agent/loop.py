@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import asyncio
 import json
-import os
 import random
 import time
 from dataclasses import dataclass, field
@@ -26,8 +25,6 @@ from robocog.shared.trace import ModelTurn, Reinvoked, RunFinished, RunStarted, 
 CONTROL_TOOLS = frozenset({"reset_world", "check_task", "clear_memory"})
 #: `_meta` key naming the model on tool calls (the server stores it with end_task's report).
 MODEL_META_KEY = "robocog/model"
-
-os.environ.setdefault("LITELLM_LOCAL_MODEL_COST_MAP", "True")
 
 
 class AgentError(RuntimeError):

@@ -141,3 +141,12 @@ def register() -> None:
     from litellm.utils import custom_llm_setup
 
     custom_llm_setup()
+    # They cost nothing; saying so also spares LiteLLM a pricing search on every call.
+    free = {
+        "input_cost_per_token": 0.0,
+        "output_cost_per_token": 0.0,
+        "cache_creation_input_token_cost": 0.0,
+        "cache_read_input_token_cost": 0.0,
+        "mode": "chat",
+    }
+    litellm.register_model({f"scripted/{v}": {**free, "litellm_provider": "scripted"} for v in SCRIPTED_MODELS})
