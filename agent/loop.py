@@ -278,35 +278,25 @@ async def _execute(
     """Run one tool call; returns ((believed success, summary) if it ended the task, text for the model)."""
     name = call["function"]["name"]
     raw = call["function"].get("arguments") or "{}"
+    arguments: dict[str, Any] | None
+    problem: str | None = None
     try:
-        arguments = json.loads(raw) if raw.strip() else {}
-        if not isinstance(arguments, dict):
-            raise ValueError("the arguments must be a JSON object")
-    except (json.JSONDecodeError, ValueError) as exc:
-        trace.emit(
-            ToolCall(t=trace.now(), invocation=invocation, id=call["id"], name=name, arguments=None, raw_arguments=raw)
-        )
-        content = (
-            f"Error: the arguments of {name} are not a valid JSON object ({exc}). Call the tool again with "
-            "arguments that match its schema."
-        )
-        trace.emit(
-            ToolResult(
-                t=trace.now(),
-                invocation=invocation,
-                id=call["id"],
-                name=name,
-                is_error=True,
-                content=content,
-                latency_s=0.0,
-            )
-        )
-        return None, content
+        parsed = json.loads(raw) if raw.strip() else {}
+        arguments = parsed if isinstance(parsed, dict) else None
+        if arguments is None:
+            problem = f"Error: the arguments of {name} must be a JSON object, not {type(parsed).__name__}."
+    except json.JSONDecodeError as exc:
+        arguments = None
+        problem = f"Error: the arguments of {name} are not a valid JSON object ({exc})."
     trace.emit(
         ToolCall(t=trace.now(), invocation=invocation, id=call["id"], name=name, arguments=arguments, raw_arguments=raw)
     )
-    if name not in names:
-        content = f"Error: there is no tool called {name!r}. The tools are: {', '.join(sorted(names))}."
+    if problem is not None:
+        problem += " Call the tool again with arguments that match its schema."
+    elif name not in names:
+        problem = f"Error: there is no tool called {name!r}. The tools are: {', '.join(sorted(names))}."
+    if problem is not None or arguments is None:  # rejected here: the server never sees the call
+        content = problem or "Error: no arguments."
         trace.emit(
             ToolResult(
                 t=trace.now(),

@@ -25,7 +25,7 @@ from robocog.agent.trace import Trace
 from robocog.server.app import build_server
 from robocog.server.config import SessionConfig
 from robocog.shared.trace import ModelTurn, ToolResult, TraceEvent, read_trace
-from tests.test_server import check_snapshot
+from tests.test_server import ROBOT_TOOLS, check_snapshot
 
 pytestmark = pytest.mark.anyio
 
@@ -221,16 +221,7 @@ def test_a_missing_api_key_names_the_variable(monkeypatch: pytest.MonkeyPatch) -
 
 async def test_control_tools_are_never_offered_to_the_model(memory_robot: Robot) -> None:
     names = {d["function"]["name"] for d in function_definitions(memory_robot.tools)}
-    assert names == {
-        "look_around",
-        "move_to",
-        "grab",
-        "place",
-        "add_to_scratchpad",
-        "view_scratchpad",
-        "end_task",
-        "search_memory",
-    }
+    assert names == ROBOT_TOOLS
 
 
 # --- the trace file ------------------------------------------------------------------------------

@@ -1,8 +1,5 @@
 """The offline MiniLM embedding function."""
 
-import ipaddress
-import socket
-from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
@@ -10,26 +7,6 @@ import pytest
 
 from robocog.server.memory import embedding
 from robocog.server.memory.embedding import MiniLMEmbeddingFunction, embed
-
-
-@pytest.fixture(autouse=True)
-def offline(monkeypatch: pytest.MonkeyPatch) -> Iterator[None]:
-    """Fail any connection to a non-loopback address: these tests must work offline."""
-    real_connect = socket.socket.connect
-
-    def guarded(self: socket.socket, address: Any) -> None:
-        if isinstance(address, tuple):
-            host = str(address[0])
-            try:
-                loopback = host == "localhost" or ipaddress.ip_address(host).is_loopback
-            except ValueError:
-                loopback = False
-            if not loopback:
-                raise OSError(f"network access attempted in an offline test: {address!r}")
-        real_connect(self, address)
-
-    monkeypatch.setattr(socket.socket, "connect", guarded)
-    yield
 
 
 def _cos(a: np.ndarray, b: np.ndarray) -> float:

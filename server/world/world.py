@@ -440,15 +440,9 @@ class World:
         here = self.robot_location()
         goal = resolve(location, self.map.names)
         if goal is None:
-            suggestions = closest(location, self.map.names)
+            message, suggestions = _unknown("location", location, self.map.names)
             return MoveResult(
-                status="failure",
-                error="unknown_location",
-                message=f"There is no location called {location!r}."
-                + (f" Did you mean {_quote_list(suggestions)}?" if suggestions else "")
-                + f" Known locations: {', '.join(self.map.names)}.",
-                suggestions=suggestions,
-                location=here,
+                status="failure", error="unknown_location", message=message, suggestions=suggestions, location=here
             )
         path = self.map.shortest_path(here, goal)
         if path is None:
@@ -492,13 +486,11 @@ class World:
         """Reach for `object` and attach it to the hand if the hand gets close enough."""
         name = resolve(object, list(self.objects))
         if name is None:
-            suggestions = closest(object, list(self.objects))
+            message, suggestions = _unknown("object", object, list(self.objects))
             return GrabResult(
                 status="failure",
                 error="unknown_object",
-                message=f"There is no object called {object!r}."
-                + (f" Did you mean {_quote_list(suggestions)}?" if suggestions else "")
-                + f" Known objects: {', '.join(self.objects)}. Use look_around to see where they are.",
+                message=message + " Use look_around to see where they are.",
                 suggestions=suggestions,
                 object=object,
                 holding=self.holding,
@@ -582,13 +574,11 @@ class World:
         here = self.robot_location()
         loc = resolve(location, self.map.names)
         if loc is None:
-            suggestions = closest(location, self.map.names)
+            message, suggestions = _unknown("location", location, self.map.names)
             return PlaceResult(
                 status="failure",
                 error="unknown_location",
-                message=f"There is no location called {location!r}."
-                + (f" Did you mean {_quote_list(suggestions)}?" if suggestions else "")
-                + f" Known locations: {', '.join(self.map.names)}.",
+                message=message,
                 suggestions=suggestions,
                 object=held,
                 location=location,
@@ -711,6 +701,13 @@ class World:
         self._grasp = None
         with contextlib.suppress(pybullet.error):
             self.client.removeConstraint(constraint)
+
+
+def _unknown(kind: str, name: str, known: list[str]) -> tuple[str, list[str]]:
+    """The failure message for a name that matches nothing, and the closest known names."""
+    suggestions = closest(name, known)
+    guess = f" Did you mean {_quote_list(suggestions)}?" if suggestions else ""
+    return f"There is no {kind} called {name!r}.{guess} Known {kind}s: {', '.join(known)}.", suggestions
 
 
 def _quote_list(names: list[str]) -> str:
