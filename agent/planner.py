@@ -318,7 +318,15 @@ def next_action(belief: Belief, goals: dict[str, Goal], skip: set[str]) -> Call 
     return Call("grab", {"object": choice})
 
 
-def _summary(task: str, belief: Belief, goals: dict[str, Goal], skip: set[str], ungraspable: set[str], n: int) -> str:
+def _summary(
+    task: str,
+    belief: Belief,
+    goals: dict[str, Goal],
+    skip: set[str],
+    ungraspable: set[str],
+    n: int,
+    why: dict[str, str] | None = None,
+) -> str:
     done = [
         f"the {o} is on {belief.where[o][0]} / {belief.where[o][1]}"
         for o in goals
@@ -329,7 +337,10 @@ def _summary(task: str, belief: Belief, goals: dict[str, Goal], skip: set[str], 
         parts.append(f"{UNGRASPABLE_NOTE} {', '.join(sorted(ungraspable))}.")
     missed = sorted(o for o in skip if o not in ungraspable)
     if missed:
-        parts.append(f"Could not finish: {', '.join(missed)}.")
+        reasons = why or {}
+        parts.append(
+            "Could not finish: " + "; ".join(f"{o} ({reasons[o]})" if o in reasons else o for o in missed) + "."
+        )
     parts.append(f"It took {n} tool calls.")
     return " ".join(parts)
 
@@ -376,8 +387,17 @@ def decide(messages: list[Any], variant: Variant = "planner", *, seed: int | Non
         a.get("object") for n, a, r, _ in history.calls if n == "grab" and r and r.get("error") == "unknown_object"
     }
     skip = {o for o in ungraspable | unreachable_objects if o}
+    # A goal "anywhere at L" with no free position at L cannot be met: give it up, honestly.
+    full = {
+        o
+        for o, g in goals.items()
+        if g.position is None and not _satisfied(belief, o, g) and not belief.free_positions(g.location)
+    }
+    skip |= {o for o in full if o != belief.holding}
+    why = {o: f"no free place position at {goals[o].location}" for o in full}
+    why |= {o: "no such object" for o in unreachable_objects if o}
     if len(history.calls) >= MAX_TOOL_CALLS:
-        summary = _summary(task, belief, goals, skip | set(goals), ungraspable, len(history.calls) + 1)
+        summary = _summary(task, belief, goals, skip | set(goals), ungraspable, len(history.calls) + 1, why)
         return Call("end_task", {"status": "failure", "description": task, "summary": summary})
     if belief.stale:
         return Call("look_around")
@@ -399,5 +419,5 @@ def decide(messages: list[Any], variant: Variant = "planner", *, seed: int | Non
     # Objects that cannot be grasped are not items to put away; for a swap or a bring they are the task.
     gave_up = skip & goals.keys() if family != "put_away" else set()
     status = "success" if (achieved and not gave_up) or sloppy else "failure"
-    summary = _summary(task, belief, goals, skip, ungraspable, len(history.calls) + 1)
+    summary = _summary(task, belief, goals, skip, ungraspable, len(history.calls) + 1, why)
     return Call("end_task", {"status": status, "description": task, "summary": summary})

@@ -268,3 +268,42 @@ def test_robocog_run_prints_the_trace_and_exits_by_the_verdict(tmp_path: Path) -
     )
     assert refused.returncode == 1
     assert "T1: believed never ended, ground truth failure, 0 tool calls" in refused.stdout
+
+
+# --- more of what the planner understands, in memory ---------------------------------------------
+
+
+async def test_the_planner_brings_an_item_to_a_named_position(memory_robot: Robot) -> None:
+    result = await run(memory_robot, "Bring the cube to the top of the Kitchen Shelf.", "scripted/planner")
+    assert result.ended and result.believed_success is True
+    state = await memory_robot.client.read_resource("robocog://world/state")
+    cube = next(o for o in json.loads(state.contents[0].text)["objects"] if o["object"] == "cube")  # type: ignore[union-attr]
+    assert (cube["location"], cube["position"]) == ("Kitchen Shelf", "top")
+
+
+async def test_the_planner_reports_honestly_when_the_destination_is_full(memory_robot: Robot) -> None:
+    trace = Trace()
+    result = await run(memory_robot, "Bring the box to the Kitchen Table.", "scripted/planner", trace)
+    assert result.ended and result.believed_success is False
+    assert result.tool_calls < 20
+    assert result.summary is not None and "no free place position at Kitchen Table" in result.summary
+
+
+async def test_the_planner_declines_what_it_cannot_do(memory_robot: Robot) -> None:
+    result = await run(memory_robot, "Water the plants.", "scripted/planner")
+    assert (result.ended, result.believed_success, result.tool_calls) == (True, False, 3)  # memory, look, end
+    assert result.summary is not None and "do not know how" in result.summary
+
+
+def test_robocog_chat_runs_tasks_typed_one_after_another(tmp_path: Path) -> None:
+    done = subprocess.run(
+        [sys.executable, "-m", "robocog.agent.cli", "chat", "--quiet", "--data-dir", str(tmp_path / "m")],
+        input="T1\nT2\n\n",
+        capture_output=True,
+        text=True,
+        timeout=180,
+        cwd=tmp_path,
+    )
+    assert done.returncode == 0, done.stderr
+    assert "T1: believed success, ground truth success" in done.stdout
+    assert "T2: believed success, ground truth success" in done.stdout

@@ -312,3 +312,18 @@ async def test_progress_is_reported_while_driving(robot: Client) -> None:
     assert not result.is_error
     assert [u[0] for u in updates] == [1, 2, 3, 4]
     assert updates[-1][1] == 4 and updates[-1][2] == "reached Kitchen Shelf"
+
+
+async def test_a_cancelled_move_leaves_the_world_consistent(robot: Client) -> None:
+    import anyio
+
+    await call(robot, "grab", object="cube")
+    with anyio.move_on_after(0.02):
+        await robot.call_tool("move_to", {"location": "Living Room TV"})
+    _, look = await call(robot, "look_around")
+    assert look["location"] in {"Front Door", "Living Room TV"}  # at a location, never between two
+    assert look["holding"] == "cube"
+    _, state = await call(robot, "check_task", task_id="T1")
+    assert {o["object"] for o in state["objects"]} == {"mug", "box", "cube"}
+    is_error, moved = await call(robot, "move_to", location="Kitchen Shelf")
+    assert not is_error and moved["location"] == "Kitchen Shelf"
