@@ -85,6 +85,11 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--memory-iterations", type=int, help="override the config's memory iterations")
     ev.add_argument("--server-cmd", help="command line that starts a server over stdio (default: robocog-server)")
     ev.add_argument("--quiet", action="store_true", help="no progress bar")
+    b = sub.add_parser("bench", help="time a server as an agent sees it (episode, each tool, the model calls)")
+    b.add_argument("--task", default="T1", help="task id to run (default T1)")
+    b.add_argument("--runs", type=int, default=5, help="episodes, each from a fresh world (default 5)")
+    _add_model(b)
+    _add_connection(b)
     rep = sub.add_parser("report", help="tables, figures and a CSV from a results file")
     rep.add_argument("results", type=Path, help="results file written by robocog eval")
     rep.add_argument("--out", type=Path, required=True, help="directory for report.md, the figures and the CSV")
@@ -269,6 +274,30 @@ def _eval(args: argparse.Namespace) -> int:
     return 0
 
 
+def _bench(args: argparse.Namespace) -> int:
+    from robocog.agent.bench import bench
+    from robocog.agent.loop import AgentError, AgentSettings, warm_up_litellm
+
+    settings = AgentSettings(
+        model=args.model,
+        max_invocations=args.max_invocations,
+        max_steps=args.max_steps,
+        timeout_s=args.timeout,
+        api_base=args.api_base,
+        seed=args.seed,
+        temperature=args.temperature,
+        params=_params(args.param),
+    )
+    warm_up_litellm()  # not part of what is measured
+    try:
+        figures = asyncio.run(bench(_server_spec(args), settings, args.task, args.runs))
+    except AgentError as exc:
+        print(f"robocog: {exc}", file=sys.stderr)
+        return 2
+    print(json.dumps(figures, indent=2))
+    return 0
+
+
 def _report(args: argparse.Namespace) -> int:
     from pydantic import ValidationError
 
@@ -299,6 +328,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _eval(args)
         if args.command == "report":
             return _report(args)
+        if args.command == "bench":
+            return _bench(args)
     except KeyboardInterrupt:
         return 130
     except ServerError as exc:

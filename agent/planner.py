@@ -393,6 +393,12 @@ def decide(messages: list[Any], variant: Variant = "planner", *, seed: int | Non
         for o, g in goals.items()
         if g.position is None and not _satisfied(belief, o, g) and not belief.free_positions(g.location)
     }
+    # Putting things away, the planner learns by trying whether an object can be grasped at all;
+    # one it has held and cannot place stays where it put it back.
+    held_before = {
+        a.get("object") for n, a, r, _ in history.calls if n == "grab" and r and r.get("status") == "success"
+    }
+    full = {o for o in full if family != "put_away" or o in held_before}
     skip |= {o for o in full if o != belief.holding}
     why = {o: f"no free place position at {goals[o].location}" for o in full}
     why |= {o: "no such object" for o in unreachable_objects if o}

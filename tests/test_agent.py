@@ -307,3 +307,11 @@ def test_robocog_chat_runs_tasks_typed_one_after_another(tmp_path: Path) -> None
     assert done.returncode == 0, done.stderr
     assert "T1: believed success, ground truth success" in done.stdout
     assert "T2: believed success, ground truth success" in done.stdout
+
+
+def test_robocog_bench_times_a_server_and_checks_every_run(tmp_path: Path) -> None:
+    done = robocog("bench", "--runs", "2", "--data-dir", str(tmp_path / "m"), cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    figures = json.loads(done.stdout)
+    assert figures["bench.true_success_rate"] == 1.0 and figures["bench.tool_calls"] == 18
+    assert figures["bench.episode_median_s"] > 0 and figures["bench.tool.move_to.p50_ms"] > 0
