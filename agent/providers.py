@@ -131,8 +131,15 @@ class ReplayProvider(CustomLLM):
         return self.completion(model, messages, *args, **kwargs)
 
 
+_registered = False
+
+
 def register() -> None:
-    """Make `scripted/...` and `replay/...` model strings known to LiteLLM (idempotent)."""
+    """Make `scripted/...` and `replay/...` model strings known to LiteLLM (once per process)."""
+    global _registered
+    if _registered:
+        return
+    _registered = True
     known = {item["provider"] for item in litellm.custom_provider_map}
     if "scripted" not in known:
         litellm.custom_provider_map.append({"provider": "scripted", "custom_handler": ScriptedProvider()})

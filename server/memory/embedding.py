@@ -114,6 +114,10 @@ def _runtime_objects() -> tuple[ort.InferenceSession, Tokenizer, tuple[str, ...]
             opts = ort.SessionOptions()
             opts.intra_op_num_threads = min(2, os.cpu_count() or 1)
             opts.inter_op_num_threads = 1
+            # Idle pool threads must sleep, not spin: a server embeds a sentence now and then, and a
+            # spinning pool would burn a core that the physics (or a second worker) needs.
+            opts.add_session_config_entry("session.intra_op.allow_spinning", "0")
+            opts.add_session_config_entry("session.inter_op.allow_spinning", "0")
             opts.log_severity_level = 3
             session = ort.InferenceSession(str(path), sess_options=opts, providers=["CPUExecutionProvider"])
             names = tuple(i.name for i in session.get_inputs())
