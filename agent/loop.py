@@ -19,12 +19,8 @@ from mcp import Client
 from mcp_types import Tool
 
 from robocog.agent.trace import Trace
+from robocog.shared.protocol import CONTROL_TOOLS, MODEL_META_KEY
 from robocog.shared.trace import ModelTurn, Reinvoked, RunFinished, RunStarted, ToolCall, ToolResult, Verdict
-
-#: Tools for evaluation harnesses: never offered to the model.
-CONTROL_TOOLS = frozenset({"reset_world", "check_task", "clear_memory"})
-#: `_meta` key naming the model on tool calls (the server stores it with end_task's report).
-MODEL_META_KEY = "robocog/model"
 
 
 class AgentError(RuntimeError):

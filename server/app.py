@@ -28,6 +28,7 @@ from pydantic import BaseModel, Field
 from robocog.assets import ASSETS_DIR
 from robocog.server.config import SessionConfig
 from robocog.shared import __version__
+from robocog.shared.protocol import MODEL_META_KEY
 from robocog.shared.results import (
     EndTaskResult,
     GrabResult,
@@ -47,9 +48,6 @@ if TYPE_CHECKING:
 Profile = Literal["default", "eval"]
 logger = logging.getLogger("robocog.server")
 T = TypeVar("T")
-
-#: `_meta` key a client may set on tool calls to name the model driving the robot.
-MODEL_META_KEY = "robocog/model"
 
 INSTRUCTIONS = (
     "A simulated household robot (PyBullet): a mobile manipulator in a kitchen, hallway and living room. "
