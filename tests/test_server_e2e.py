@@ -7,13 +7,15 @@ import shutil
 import socket
 import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 from mcp import Client
-from mcp.client.stdio import StdioServerParameters
+from mcp.client.stdio import StdioServerParameters, stdio_client
 
 from robocog.server.world.demo import T1_SEQUENCE, T2_SEQUENCE
 from tests.test_server import action_args
@@ -27,9 +29,11 @@ def server_command() -> list[str]:
     return [script] if script else [sys.executable, "-m", "robocog.server.cli"]
 
 
-def stdio_params(*args: str) -> StdioServerParameters:
+def stdio_params(*args: str) -> Any:
+    """A stdio transport to a spawned server, whose stderr (PyBullet's chatter) goes to a log."""
     command, *rest = server_command()
-    return StdioServerParameters(command=command, args=[*rest, *args], env={"ANONYMIZED_TELEMETRY": "False"})
+    params = StdioServerParameters(command=command, args=[*rest, *args], env={"ANONYMIZED_TELEMETRY": "False"})
+    return stdio_client(params, errlog=tempfile.TemporaryFile("w+"))
 
 
 async def run_t1_then_t2(client: Client) -> None:
