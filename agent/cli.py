@@ -110,6 +110,22 @@ def _params(items: list[str]) -> dict[str, Any]:
     return out
 
 
+def _settings(args: argparse.Namespace) -> Any:
+    """The model options of `run`, `chat` and `bench` as the loop's settings."""
+    from robocog.agent.loop import AgentSettings
+
+    return AgentSettings(
+        model=args.model,
+        max_invocations=args.max_invocations,
+        max_steps=args.max_steps,
+        timeout_s=args.timeout,
+        api_base=args.api_base,
+        seed=args.seed,
+        temperature=args.temperature,
+        params=_params(args.param),
+    )
+
+
 def _server_spec(args: argparse.Namespace) -> Any:
     from robocog.agent.connection import ServerSpec
 
@@ -137,20 +153,11 @@ def _preload_litellm() -> threading.Thread:
 
 async def _run_tasks(args: argparse.Namespace, tasks: Sequence[str] | None, loader: threading.Thread) -> int:
     from robocog.agent.connection import connect
-    from robocog.agent.loop import AgentError, AgentSettings, check_credentials, finish, run_episode
+    from robocog.agent.loop import AgentError, check_credentials, finish, run_episode
     from robocog.agent.trace import Trace, make_console
     from robocog.shared.trace import Verdict
 
-    settings = AgentSettings(
-        model=args.model,
-        max_invocations=args.max_invocations,
-        max_steps=args.max_steps,
-        timeout_s=args.timeout,
-        api_base=args.api_base,
-        seed=args.seed,
-        temperature=args.temperature,
-        params=_params(args.param),
-    )
+    settings = _settings(args)
     console = make_console()
     ok = True
     async with connect(_server_spec(args)) as robot:
@@ -276,18 +283,9 @@ def _eval(args: argparse.Namespace) -> int:
 
 def _bench(args: argparse.Namespace) -> int:
     from robocog.agent.bench import bench
-    from robocog.agent.loop import AgentError, AgentSettings, warm_up_litellm
+    from robocog.agent.loop import AgentError, warm_up_litellm
 
-    settings = AgentSettings(
-        model=args.model,
-        max_invocations=args.max_invocations,
-        max_steps=args.max_steps,
-        timeout_s=args.timeout,
-        api_base=args.api_base,
-        seed=args.seed,
-        temperature=args.temperature,
-        params=_params(args.param),
-    )
+    settings = _settings(args)
     warm_up_litellm()  # not part of what is measured
     try:
         figures = asyncio.run(bench(_server_spec(args), settings, args.task, args.runs))

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import asyncio
 import hashlib
-import json
 import re
 import shutil
 from collections.abc import Callable
@@ -299,7 +298,3 @@ def summary_line(rows: list[AttemptRow]) -> str:
         wins = sum(r.true_success for r in group)
         parts.append(f"{model} {task}: {wins}/{len(group)} true successes")
     return "; ".join(parts)
-
-
-def dump_rows(rows: list[AttemptRow]) -> str:
-    return "\n".join(json.dumps(r.model_dump(mode="json")) for r in rows)

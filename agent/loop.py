@@ -292,7 +292,7 @@ async def _execute(
     elif name not in names:
         problem = f"Error: there is no tool called {name!r}. The tools are: {', '.join(sorted(names))}."
     if problem is not None or arguments is None:  # rejected here: the server never sees the call
-        content = problem or "Error: no arguments."
+        content = problem or ""
         trace.emit(
             ToolResult(
                 t=trace.now(),

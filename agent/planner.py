@@ -113,7 +113,7 @@ class History:
 # --- reading the conversation --------------------------------------------------------------------
 
 
-def _as_dict(message: Any) -> dict[str, Any]:
+def as_dict(message: Any) -> dict[str, Any]:
     if isinstance(message, dict):
         return message
     if hasattr(message, "model_dump"):
@@ -134,7 +134,7 @@ def _parse_json(text: Any) -> dict[str, Any] | None:
 
 
 def read_history(messages: list[Any]) -> History:
-    msgs = [_as_dict(m) for m in messages]
+    msgs = [as_dict(m) for m in messages]
     task = next((str(m.get("content") or "") for m in msgs if m.get("role") == "user"), "")
     results: dict[str, Any] = {m.get("tool_call_id"): m.get("content") for m in msgs if m.get("role") == "tool"}
     calls: list[tuple[str, dict[str, Any], dict[str, Any] | None, bool]] = []
@@ -143,8 +143,8 @@ def read_history(messages: list[Any]) -> History:
         if m.get("role") != "assistant":
             continue
         for tc in m.get("tool_calls") or []:
-            tc = _as_dict(tc)
-            fn = _as_dict(tc.get("function") or {})
+            tc = as_dict(tc)
+            fn = as_dict(tc.get("function") or {})
             args = _parse_json(fn.get("arguments") or "{}") or {}
             result = _parse_json(results.get(tc.get("id")))
             is_error = result is None or result.get("status") == "failure"

@@ -21,7 +21,7 @@ import litellm
 from litellm import CustomLLM, ModelResponse
 from litellm.types.utils import Choices, Message, Usage
 
-from robocog.agent.planner import Call, decide
+from robocog.agent.planner import Call, as_dict, decide
 from robocog.shared.trace import ModelTurn, read_trace
 
 SCRIPTED_MODELS = ("planner", "overconfident", "refuser")
@@ -86,19 +86,13 @@ class ScriptedProvider(CustomLLM):
         seed = params.get("seed")
         p = float(params.get("p", (params.get("extra_body") or {}).get("p", 0.3)))
         calls_so_far = sum(
-            len(m.get("tool_calls") or []) for m in map(_plain, messages) if m.get("role") == "assistant"
+            len(m.get("tool_calls") or []) for m in map(as_dict, messages) if m.get("role") == "assistant"
         )
         call = decide(messages, variant, seed=seed, p=p)  # type: ignore[arg-type]
         return _response(f"scripted/{variant}", call_message(call, calls_so_far + 1), _prompt_chars(messages))
 
     async def acompletion(self, model: str, messages: list, *args: Any, **kwargs: Any) -> ModelResponse:  # type: ignore[override]
         return self.completion(model, messages, *args, **kwargs)
-
-
-def _plain(message: Any) -> dict[str, Any]:
-    if isinstance(message, dict):
-        return message
-    return message.model_dump() if hasattr(message, "model_dump") else dict(message)
 
 
 @cache
@@ -120,7 +114,7 @@ class ReplayProvider(CustomLLM):
             raise litellm.BadRequestError(
                 message=f"replay: no trace file {path!r}", model=model, llm_provider="replay"
             ) from None
-        index = sum(1 for m in map(_plain, messages) if m.get("role") == "assistant")
+        index = sum(1 for m in map(as_dict, messages) if m.get("role") == "assistant")
         if index >= len(turns):
             message: dict[str, Any] = {"role": "assistant", "content": "(the recorded run has no more turns)"}
         else:

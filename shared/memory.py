@@ -1,11 +1,10 @@
 """Schemas of episodic memory: one stored episode and one search hit."""
 
 from datetime import datetime
-from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
-Status = Literal["success", "failure"]
+from robocog.shared.results import Status
 
 
 class MemoryRecord(BaseModel):
