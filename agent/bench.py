@@ -13,8 +13,9 @@ from collections import defaultdict
 from typing import Any
 
 from robocog.agent.connection import ServerSpec, connect
-from robocog.agent.loop import AgentError, AgentSettings, run_episode
+from robocog.agent.loop import AgentSettings, run_episode
 from robocog.agent.trace import Trace
+from robocog.shared.errors import ConfigError, ModelServiceError
 from robocog.shared.trace import ModelTurn, ToolResult
 
 
@@ -30,12 +31,12 @@ async def bench(spec: ServerSpec, settings: AgentSettings, task_id: str, runs: i
         connected = time.perf_counter() - start
         names = {t.name for t in robot.tools}
         if not {"reset_world", "check_task"} <= names:
-            raise AgentError(
+            raise ConfigError(
                 "robocog bench needs a server started with --profile eval (for reset_world and check_task)"
             )
         prompt = robot.tasks.get(task_id)
         if prompt is None:
-            raise AgentError(f"the server has no task {task_id!r}; it has {', '.join(robot.tasks) or 'none'}")
+            raise ConfigError(f"the server has no task {task_id!r}; it has {', '.join(robot.tasks) or 'none'}")
         await robot.client.call_tool("look_around", {})  # the world is built
         episodes: list[float] = []
         model_ms: list[float] = []
@@ -50,7 +51,7 @@ async def bench(spec: ServerSpec, settings: AgentSettings, task_id: str, runs: i
                 robot.client, prompt, settings, trace, system_prompt=robot.system_prompt, tools=robot.tools
             )
             if result.error:
-                raise AgentError(result.error)
+                raise ModelServiceError(result.error)
             verdict = await robot.client.call_tool("check_task", {"task_id": task_id})
             successes += bool((verdict.structured_content or {}).get("success"))
             calls = result.tool_calls

@@ -153,8 +153,9 @@ def _preload_litellm() -> threading.Thread:
 
 async def _run_tasks(args: argparse.Namespace, tasks: Sequence[str] | None, loader: threading.Thread) -> int:
     from robocog.agent.connection import connect
-    from robocog.agent.loop import AgentError, check_credentials, finish, run_episode
+    from robocog.agent.loop import check_credentials, finish, run_episode
     from robocog.agent.trace import Trace, make_console
+    from robocog.shared.errors import ModelServiceError
     from robocog.shared.trace import Verdict
 
     settings = _settings(args)
@@ -164,7 +165,7 @@ async def _run_tasks(args: argparse.Namespace, tasks: Sequence[str] | None, load
         await asyncio.to_thread(loader.join)
         try:
             check_credentials(settings.model, settings.api_base)
-        except AgentError as exc:
+        except ModelServiceError as exc:
             print(f"robocog: {exc}", file=sys.stderr)
             return 2
         pending = list(tasks) if tasks is not None else None
@@ -233,13 +234,13 @@ def _eval(args: argparse.Namespace) -> int:
         TimeRemainingColumn,
     )
 
-    from robocog.agent.evaluation import EvalError, run_eval, summary_line
+    from robocog.agent.evaluation import run_eval, summary_line
+    from robocog.shared.errors import ConfigError, ServerConnectionError
     from robocog.shared.evaluation import load_config
-    from robocog.shared.scene import SceneError
 
     try:
         config = load_config(args.config)
-    except SceneError as exc:
+    except ConfigError as exc:
         print(f"robocog: {exc}", file=sys.stderr)
         return 2
     updates = {k: v for k, v in (("trials", args.trials), ("memory_iterations", args.memory_iterations)) if v}
@@ -273,7 +274,7 @@ def _eval(args: argparse.Namespace) -> int:
             rows = asyncio.run(
                 run_eval(config, out, workers=args.workers, resume=args.resume, server_command=server, on_progress=show)
             )
-        except EvalError as exc:
+        except (ConfigError, ServerConnectionError) as exc:
             print(f"robocog: {exc}", file=sys.stderr)
             return 2
     print(f"{len(rows)} attempts in {out}")
@@ -283,13 +284,14 @@ def _eval(args: argparse.Namespace) -> int:
 
 def _bench(args: argparse.Namespace) -> int:
     from robocog.agent.bench import bench
-    from robocog.agent.loop import AgentError, warm_up_litellm
+    from robocog.agent.loop import warm_up_litellm
+    from robocog.shared.errors import ConfigError, ModelServiceError
 
     settings = _settings(args)
     warm_up_litellm()  # not part of what is measured
     try:
         figures = asyncio.run(bench(_server_spec(args), settings, args.task, args.runs))
-    except AgentError as exc:
+    except (ConfigError, ModelServiceError) as exc:
         print(f"robocog: {exc}", file=sys.stderr)
         return 2
     print(json.dumps(figures, indent=2))
@@ -314,7 +316,8 @@ def _report(args: argparse.Namespace) -> int:
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     loader = _preload_litellm() if args.command in ("run", "chat") else None  # seconds: start at once
-    from robocog.agent.connection import ServerError, leaf_message
+    from robocog.agent.connection import leaf_message
+    from robocog.shared.errors import ServerConnectionError
 
     try:
         if args.command == "run":
@@ -330,7 +333,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _bench(args)
     except KeyboardInterrupt:
         return 130
-    except ServerError as exc:
+    except ServerConnectionError as exc:
         print(f"robocog: {exc}", file=sys.stderr)
         return 2
     except (OSError, BaseExceptionGroup) as exc:

@@ -22,6 +22,7 @@ from mcp.client.stdio import StdioServerParameters
 from mcp_types import Tool
 
 from robocog.shared import __version__
+from robocog.shared.errors import ServerConnectionError
 
 
 def default_server_command() -> list[str]:
@@ -71,10 +72,6 @@ class Robot:
         return next((tid for tid, text in self.tasks.items() if " ".join(text.split()).casefold() == wanted), None)
 
 
-class ServerError(RuntimeError):
-    """The robot server could not be started or reached."""
-
-
 def leaf_message(exc: BaseException) -> str:
     """The innermost message of an exception (task groups wrap the real one)."""
     while isinstance(exc, BaseExceptionGroup) and exc.exceptions:
@@ -108,12 +105,12 @@ async def connect(spec: ServerSpec) -> AsyncIterator[Robot]:
         async with _session(target, spec) as robot:
             yield robot
     except Exception as exc:
-        if log is None or isinstance(exc, ServerError):
+        if log is None or isinstance(exc, ServerConnectionError):
             raise
         log.flush()
         tail = "\n".join(Path(log.name).read_text(encoding="utf-8", errors="replace").splitlines()[-15:])
         where = f"; the end of its log:\n{tail}" if tail.strip() else " (it wrote nothing to stderr)"
-        raise ServerError(f"the robot server `{spec.label}` failed: {leaf_message(exc)}{where}") from exc
+        raise ServerConnectionError(f"the robot server `{spec.label}` failed: {leaf_message(exc)}{where}") from exc
     finally:
         if log is not None:
             log.close()

@@ -22,16 +22,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from robocog.agent.connection import Robot, ServerError, ServerSpec, connect, leaf_message
+from robocog.agent.connection import Robot, ServerSpec, connect, leaf_message
 from robocog.agent.loop import AgentSettings, finish, run_episode, warm_up_litellm
 from robocog.agent.trace import Trace
 from robocog.shared import __version__
+from robocog.shared.errors import ConfigError, ServerConnectionError
 from robocog.shared.evaluation import AttemptRow, EvalConfig, ModelSpec
 from robocog.shared.trace import Verdict
-
-
-class EvalError(RuntimeError):
-    """The study cannot run as configured (say, results exist and --resume was not given)."""
 
 
 def slug(text: str) -> str:
@@ -138,7 +135,7 @@ class Runner:
         cfg = self.config
         prompt = robot.tasks.get(task_id)
         if prompt is None:
-            raise EvalError(f"the server has no task {task_id!r} (it has {', '.join(robot.tasks)})")
+            raise ConfigError(f"the server has no task {task_id!r} (it has {', '.join(robot.tasks)})")
         trace_path = self.traces_dir / slug(spec.name) / f"trial-{trial}" / f"iter-{iteration}-{task_id}.jsonl"
         trace_path.unlink(missing_ok=True)
         trace = Trace(trace_path)
@@ -221,11 +218,13 @@ class Runner:
                             if resume_at < self.config.memory_iterations:
                                 queue.put_nowait((spec, trial, resume_at))
                             break  # reconnect: a new server, the same memory on disk
-            except ServerError as exc:
-                raise EvalError(f"worker {index}: {exc}") from exc
+            except ServerConnectionError as exc:
+                raise ServerConnectionError(f"worker {index}: {exc}") from exc
 
 
-class ServerBroke(Exception):
+class ServerBroke(ServerConnectionError):
+    """The server died during an attempt; carries the attempt's row."""
+
     def __init__(self, row: AttemptRow) -> None:
         super().__init__(row.error)
         self.row = row
@@ -235,7 +234,7 @@ async def _control(robot: Robot, tool: str, **arguments: Any) -> dict[str, Any]:
     result = await robot.client.call_tool(tool, arguments)
     if result.is_error or not isinstance(result.structured_content, dict):
         text = " ".join(getattr(b, "text", "") for b in result.content)
-        raise RuntimeError(f"{tool} failed: {text}")
+        raise ServerConnectionError(f"{tool} failed: {text}")
     return result.structured_content
 
 
@@ -243,7 +242,7 @@ def plan_units(config: EvalConfig, out: Path, resume: bool) -> list[tuple[ModelS
     """The units still to run; with `resume`, drops the rows of units that were cut off."""
     rows = read_rows(out)
     if rows and not resume:
-        raise EvalError(f"{out} already holds {len(rows)} results: use --resume to continue, or another --out")
+        raise ConfigError(f"{out} already holds {len(rows)} results: use --resume to continue, or another --out")
     by_unit: dict[tuple[str, int], list[AttemptRow]] = {}
     for row in rows:
         by_unit.setdefault(row.unit, []).append(row)

@@ -19,12 +19,9 @@ from mcp import Client
 from mcp_types import Tool
 
 from robocog.agent.trace import Trace
+from robocog.shared.errors import ModelServiceError, ServerConnectionError
 from robocog.shared.protocol import CONTROL_TOOLS, MODEL_META_KEY
 from robocog.shared.trace import ModelTurn, Reinvoked, RunFinished, RunStarted, ToolCall, ToolResult, Verdict
-
-
-class AgentError(RuntimeError):
-    """The run cannot go on (no API key, the model service keeps failing, the server is gone)."""
 
 
 @dataclass
@@ -98,7 +95,7 @@ def warm_up_litellm() -> None:
 
 
 def check_credentials(model: str, api_base: str | None) -> None:
-    """Raise `AgentError` naming the environment variable a cloud model needs and lacks."""
+    """Raise `ModelServiceError` naming the environment variable a cloud model needs and lacks."""
     if model.split("/", 1)[0] in ("scripted", "replay", "ollama", "ollama_chat") or api_base:
         return
     import litellm
@@ -109,7 +106,7 @@ def check_credentials(model: str, api_base: str | None) -> None:
         return
     missing = check.get("missing_keys") or []
     if missing:
-        raise AgentError(f"model {model!r} needs {', '.join(missing)} set in the environment")
+        raise ModelServiceError(f"model {model!r} needs {', '.join(missing)} set in the environment")
 
 
 async def complete(settings: AgentSettings, messages: list[dict[str, Any]], tools: list[dict[str, Any]]) -> Any:
@@ -139,13 +136,13 @@ async def complete(settings: AgentSettings, messages: list[dict[str, Any]], tool
                 model=settings.model, messages=messages, tools=tools, timeout=settings.timeout_s, **kwargs
             )
         except litellm.AuthenticationError as exc:
-            raise AgentError(f"the model service refused the credentials: {exc}") from exc
+            raise ModelServiceError(f"the model service refused the credentials: {exc}") from exc
         except transient as exc:
             if attempt == settings.retries:
-                raise AgentError(f"the model service kept failing ({type(exc).__name__}): {exc}") from exc
+                raise ModelServiceError(f"the model service kept failing ({type(exc).__name__}): {exc}") from exc
             await asyncio.sleep(min(30.0, settings.backoff_s * 2.0**attempt) * (0.5 + random.random()))
         except Exception as exc:  # a bad request, an unknown model...: not worth retrying
-            raise AgentError(f"the model call failed ({type(exc).__name__}): {exc}") from exc
+            raise ModelServiceError(f"the model call failed ({type(exc).__name__}): {exc}") from exc
     raise AssertionError("unreachable")
 
 
@@ -249,7 +246,7 @@ async def run_episode(
                         ended, believed, summary = True, done[0], done[1]
                 if ended:
                     break
-    except AgentError as exc:
+    except (ModelServiceError, ServerConnectionError) as exc:
         error = str(exc)
     result = EpisodeResult(
         task=task,
@@ -311,7 +308,7 @@ async def _execute(
             name, arguments, read_timeout_seconds=settings.timeout_s, meta={MODEL_META_KEY: settings.model}
         )
     except Exception as exc:  # the server or the transport failed: the run cannot go on
-        raise AgentError(f"the robot server failed on {name}: {exc}") from exc
+        raise ServerConnectionError(f"the robot server failed on {name}: {exc}") from exc
     content = _text(result)
     structured = result.structured_content if isinstance(result.structured_content, dict) else None
     trace.emit(

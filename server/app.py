@@ -28,6 +28,7 @@ from pydantic import BaseModel, Field
 from robocog.assets import ASSETS_DIR
 from robocog.server.config import SessionConfig
 from robocog.shared import __version__
+from robocog.shared.errors import WorldError
 from robocog.shared.protocol import MODEL_META_KEY
 from robocog.shared.results import (
     EndTaskResult,
@@ -306,7 +307,7 @@ class _Current:
 
     def get(self) -> AppState:
         if self.state is None:
-            raise RuntimeError("the robot session is not running")
+            raise WorldError("the robot session is not running")
         return self.state
 
 

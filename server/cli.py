@@ -81,8 +81,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     from robocog.server.app import build_server
     from robocog.server.memory.names import collection_name, parse_chroma_url
     from robocog.server.session import SessionConfig
-    from robocog.server.world.world import WorldError
-    from robocog.shared.scene import SceneError, load_scene
+    from robocog.shared.errors import ConfigError, WorldError
+    from robocog.shared.scene import load_scene
 
     try:  # fail fast, with the reason, before any client connects
         if args.scene is not None:
@@ -90,7 +90,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.memory_url is not None:
             parse_chroma_url(args.memory_url)
         collection_name(args.memory_namespace)
-    except (SceneError, ValueError) as exc:
+    except (ConfigError, ValueError) as exc:
         print(f"robocog-server: {exc}", file=sys.stderr)
         return 2
     if args.gui and not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):

@@ -3,7 +3,7 @@
 A scene names rooms, walls, semantic locations joined by edges, furniture built from boxes,
 place positions (regions on a support surface where objects may rest) and the movable objects
 with their start state. Users add a location or an object by editing YAML; a malformed file
-raises `SceneError` naming the file, the field and the problem.
+raises `ConfigError` naming the file, the field and the problem.
 """
 
 from __future__ import annotations
@@ -14,15 +14,13 @@ from typing import Annotated, Literal, TypeVar
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
+from robocog.shared.errors import ConfigError
+
 Vec2 = tuple[float, float]
 Vec3 = tuple[float, float, float]
 Rgba = tuple[float, float, float, float]
 Positive = Annotated[float, Field(gt=0)]
 M = TypeVar("M", bound=BaseModel)
-
-
-class SceneError(ValueError):
-    """A scene or robot file could not be read or is inconsistent."""
 
 
 class _Strict(BaseModel):
@@ -208,16 +206,16 @@ def load_yaml_model(path: Path, model: type[M]) -> M:
     try:
         data = yaml.safe_load(path.read_text(encoding="utf-8"))
     except FileNotFoundError as exc:
-        raise SceneError(f"{path}: file not found") from exc
+        raise ConfigError(f"{path}: file not found") from exc
     except yaml.YAMLError as exc:
-        raise SceneError(f"{path}: not valid YAML: {exc}") from exc
+        raise ConfigError(f"{path}: not valid YAML: {exc}") from exc
     try:
         return model.model_validate(data)
     except ValidationError as exc:
         problems = "; ".join(
             f"{'.'.join(str(p) for p in err['loc']) or '(top level)'}: {err['msg']}" for err in exc.errors()
         )
-        raise SceneError(f"{path}: {problems}") from exc
+        raise ConfigError(f"{path}: {problems}") from exc
 
 
 def load_scene(path: Path) -> Scene:

@@ -19,11 +19,12 @@ from litellm import CustomLLM, ModelResponse
 from mcp import Client
 
 from robocog.agent.connection import Robot, ServerSpec, connect
-from robocog.agent.loop import AgentError, AgentSettings, check_credentials, function_definitions, run_episode
+from robocog.agent.loop import AgentSettings, check_credentials, function_definitions, run_episode
 from robocog.agent.providers import _response, register
 from robocog.agent.trace import Trace
 from robocog.server.app import build_server
 from robocog.server.config import SessionConfig
+from robocog.shared.errors import ModelServiceError
 from robocog.shared.trace import ModelTurn, ToolResult, TraceEvent, read_trace
 from tests.test_server import ROBOT_TOOLS, check_snapshot
 
@@ -213,7 +214,7 @@ async def test_a_model_service_that_keeps_failing_ends_the_run_with_the_reason(
 
 def test_a_missing_api_key_names_the_variable(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.delenv("OPENAI_API_KEY", raising=False)
-    with pytest.raises(AgentError, match="OPENAI_API_KEY"):
+    with pytest.raises(ModelServiceError, match="OPENAI_API_KEY"):
         check_credentials("gpt-4.1", None)
     check_credentials("scripted/planner", None)
     check_credentials("openai/local-model", "http://127.0.0.1:8080/v1")

@@ -14,10 +14,10 @@ from pathlib import Path
 
 import pytest
 
-from robocog.agent.evaluation import EvalError, read_rows, run_eval
+from robocog.agent.evaluation import read_rows, run_eval
 from robocog.agent.report import pass_hat_k, render, wilson
+from robocog.shared.errors import ConfigError
 from robocog.shared.evaluation import AttemptRow, EvalConfig, ModelSpec, load_config
-from robocog.shared.scene import SceneError
 from robocog.shared.trace import ToolResult, read_trace
 
 pytestmark = pytest.mark.anyio
@@ -50,7 +50,7 @@ def test_shipped_configs_load() -> None:
 def test_a_bad_config_names_the_field(tmp_path: Path) -> None:
     bad = tmp_path / "study.yaml"
     bad.write_text("models:\n  - model: gpt-4.1\ntrials: zero\n")
-    with pytest.raises(SceneError, match=r"study\.yaml: trials: Input should be a valid integer"):
+    with pytest.raises(ConfigError, match=r"study\.yaml: trials: Input should be a valid integer"):
         load_config(bad)
 
 
@@ -110,7 +110,7 @@ async def test_a_failing_model_call_fails_the_attempt_with_its_reason_not_the_ru
 async def test_existing_results_are_not_overwritten_without_resume(tmp_path: Path) -> None:
     out = tmp_path / "r.jsonl"
     out.write_text((DATA / "results_small.jsonl").read_text())
-    with pytest.raises(EvalError, match="--resume"):
+    with pytest.raises(ConfigError, match="--resume"):
         await run_eval(study(ModelSpec(model="scripted/planner")), out)
 
 

@@ -10,7 +10,8 @@ import pytest
 import yaml
 
 from robocog.server.world.world import DEFAULT_SCENE, World
-from robocog.shared.scene import Scene, SceneError, load_scene
+from robocog.shared.errors import ConfigError
+from robocog.shared.scene import Scene, load_scene
 from tests.test_world import PAPER_EDGES as PAPER_EDGE_LIST
 from tests.test_world import PAPER_LOCATIONS
 
@@ -31,7 +32,7 @@ def write_scene(tmp_path: Path, data: Any, name: str = "scene.yaml") -> Path:
 
 
 def scene_error(path: Path) -> str:
-    with pytest.raises(SceneError) as info:
+    with pytest.raises(ConfigError) as info:
         load_scene(path)
     return str(info.value)
 
@@ -167,7 +168,7 @@ def test_world_from_a_malformed_scene_path_raises_scene_error(tmp_path: Path, ho
     data = copy.deepcopy(household)
     data["edges"].append(["Front Door", "Attic"])
     path = write_scene(tmp_path, data)
-    with pytest.raises(SceneError, match="Attic"):
+    with pytest.raises(ConfigError, match="Attic"):
         World(path)
 
 

@@ -16,7 +16,8 @@ import pytest
 
 from robocog.server.world.demo import T1_SEQUENCE, T2_SEQUENCE, Action, perform, run_sequence
 from robocog.server.world.tasks import evaluate, task_catalogue
-from robocog.server.world.world import DEFAULT_SCENE, World, WorldError
+from robocog.server.world.world import DEFAULT_SCENE, World
+from robocog.shared.errors import WorldError
 from robocog.shared.results import ObjectPlacement
 from robocog.shared.scene import Location, load_scene
 

@@ -25,6 +25,7 @@ from robocog.assets import ASSETS_DIR
 from robocog.server.world.cstdio import stdout_to_stderr
 from robocog.server.world.navigation import SemanticMap, closest, resolve
 from robocog.server.world.robot import Robot
+from robocog.shared.errors import WorldError
 from robocog.shared.results import (
     GrabResult,
     LocationView,
@@ -45,10 +46,6 @@ DEFAULT_SCENE = ASSETS_DIR / "scenes" / "household.yaml"
 ProgressFn = Callable[[float, float, str], None]
 #: Polled between path segments; True stops a motion at the location just reached.
 StopFn = Callable[[], bool]
-
-
-class WorldError(RuntimeError):
-    """The world cannot be built or driven as asked (not a failure of an action)."""
 
 
 @dataclass(frozen=True)
