@@ -1,6 +1,7 @@
 """The MCP surface: the robot's tools, its resources and prompts, on mcp 2.x's `MCPServer`.
 
-This module only wires; what each tool does lives in `RobotSession`. One server is one robot:
+This module only wires: what each tool does lives in its module under `robocog.server.tools`,
+and every tool is registered the same way from the lists there. One server is one robot:
 calls are serialised (a lock, and the work runs on a worker thread) so the PyBullet client has
 one driver at a time, and an action runs to its end even when the call is cancelled, so the world
 is always left consistent.
@@ -8,7 +9,6 @@ is always left consistent.
 
 from __future__ import annotations
 
-import functools
 import inspect
 import json
 import logging
@@ -22,26 +22,16 @@ import anyio.from_thread
 import anyio.to_thread
 from mcp.server.mcpserver import Context, MCPServer
 from mcp.server.mcpserver.exceptions import ToolError
-from mcp_types import CallToolResult, TextContent, ToolAnnotations
-from pydantic import BaseModel, Field
+from mcp_types import CallToolResult, TextContent
+from pydantic import BaseModel
 
 from robocog.assets import ASSETS_DIR
 from robocog.server.config import SessionConfig
+from robocog.server.tools import CONTROL_TOOLS, ROBOT_TOOLS
+from robocog.server.tools.base import Caller, ProgressFn, Tool
 from robocog.shared import __version__
 from robocog.shared.errors import WorldError
 from robocog.shared.protocol import MODEL_META_KEY
-from robocog.shared.results import (
-    EndTaskResult,
-    GrabResult,
-    LookAroundResult,
-    MemorySearchResult,
-    MoveResult,
-    PlaceResult,
-    ScratchpadResult,
-    ScratchpadView,
-    TaskVerdict,
-    WorldState,
-)
 
 if TYPE_CHECKING:
     from robocog.server.session import RobotSession
@@ -77,8 +67,8 @@ class AppState:
         await self.ready.wait()
         return self.session
 
-    async def run(self, fn: Callable[..., T], *args: Any) -> T:
-        """Run `fn(session, *args)` on a worker thread, one call at a time, to completion.
+    async def run(self, fn: Callable[[RobotSession], T]) -> T:
+        """Run `fn(session)` on a worker thread, one call at a time, to completion.
 
         A `ValueError` (bad input the caller can fix) becomes a tool error with its message.
         """
@@ -86,17 +76,9 @@ class AppState:
         async with self.lock:
             try:
                 # abandon_on_cancel=False: a cancelled call still finishes its action first.
-                return await anyio.to_thread.run_sync(functools.partial(fn, session, *args), abandon_on_cancel=False)
+                return await anyio.to_thread.run_sync(fn, session, abandon_on_cancel=False)
             except ValueError as exc:
                 raise ToolError(str(exc)) from exc
-
-    async def call(self, method: str, *args: Any) -> Any:
-        """Run the session's `method(*args)` (see `run`)."""
-        return await self.run(lambda session, *a: getattr(session, method)(*a), *args)
-
-
-def _state(ctx: Context[AppState]) -> AppState:
-    return ctx.request_context.lifespan_context
 
 
 def _tool_result(result: BaseModel) -> CallToolResult:
@@ -109,7 +91,7 @@ def _tool_result(result: BaseModel) -> CallToolResult:
     )
 
 
-def _progress(ctx: Context[AppState]) -> Callable[[float, float, str], None]:
+def _progress(ctx: Context[AppState]) -> ProgressFn:
     """A progress callback for the worker thread that sends MCP progress notifications."""
 
     def report(done: float, total: float, message: str) -> None:
@@ -129,175 +111,27 @@ def _model_label(ctx: Context[AppState]) -> str | None:
     return None
 
 
-READ_ONLY = ToolAnnotations(read_only_hint=True, open_world_hint=False)
-ACTION = ToolAnnotations(read_only_hint=False, destructive_hint=False, idempotent_hint=False, open_world_hint=False)
-IDEMPOTENT_ACTION = ToolAnnotations(
-    read_only_hint=False, destructive_hint=False, idempotent_hint=True, open_world_hint=False
-)
+def register_tool(mcp: MCPServer[AppState], tool: Tool[Any]) -> None:
+    """Publish `tool`: its arguments become the input schema, its result model the output schema.
 
-LocationArg = Annotated[
-    str,
-    Field(
-        description="A location on the robot's map, as look_around names it, e.g. 'Kitchen Shelf'",
-        min_length=1,
-        max_length=200,
-    ),
-]
+    The handler the SDK sees has the tool's own parameters (keyword-only) plus the request context;
+    the call runs on the session, serialised, and a result with status "failure" is a tool error.
+    """
 
-
-def _tool(mcp: MCPServer[AppState], title: str, annotations: ToolAnnotations) -> Callable[[Callable[..., Any]], Any]:
-    """Register a tool whose description is its docstring, dedented."""
-
-    def register(fn: Callable[..., Any]) -> Callable[..., Any]:
-        mcp.add_tool(fn, title=title, description=inspect.cleandoc(fn.__doc__ or ""), annotations=annotations)
-        return fn
-
-    return register
-
-
-def register_robot_tools(mcp: MCPServer[AppState]) -> None:
-    """The paper's eight tools."""
-
-    @_tool(mcp, "Look around", READ_ONLY)
-    async def look_around(ctx: Context[AppState]) -> Annotated[CallToolResult, LookAroundResult]:
-        """Perceive the world: where the robot is, what it holds, and for every location its objects,
-        its place positions (free or occupied) and its neighbouring locations."""
-        s = _state(ctx)
-        return _tool_result(await s.call("look_around"))
-
-    @_tool(mcp, "Move to a location", IDEMPOTENT_ACTION)
-    async def move_to(location: LocationArg, ctx: Context[AppState]) -> Annotated[CallToolResult, MoveResult]:
-        """Drive the robot to a location along the shortest path on its map (A*). Fails with the
-        closest known names if the location does not exist, or if there is no path."""
-        s = _state(ctx)
-        return _tool_result(await s.call("move_to", location, _progress(ctx)))
-
-    @_tool(mcp, "Grab an object", ACTION)
-    async def grab(
-        object: Annotated[
-            str,
-            Field(
-                description="The object to pick up, e.g. 'mug'; it must be at the robot's location",
-                min_length=1,
-                max_length=200,
-            ),
-        ],
-        ctx: Context[AppState],
-    ) -> Annotated[CallToolResult, GrabResult]:
-        """Reach for an object at the robot's location and hold it. The robot holds one object at a
-        time; fails if the object is unknown, elsewhere, out of reach, too large to grasp, or if the
-        hand is already full."""
-        s = _state(ctx)
-        return _tool_result(await s.call("grab", object))
-
-    @_tool(mcp, "Place the held object", ACTION)
-    async def place(
-        location: LocationArg,
-        position: Annotated[
-            str,
-            Field(
-                description="A place position of that location as look_around lists it, e.g. 'top', "
-                "'middle', 'bottom' or 'floor'",
-                min_length=1,
-                max_length=200,
-            ),
-        ],
-        ctx: Context[AppState],
-    ) -> Annotated[CallToolResult, PlaceResult]:
-        """Put the held object down on a free place position of the location where the robot is.
-        Fails if nothing is held, the robot is elsewhere, the position is unknown or occupied
-        (the message lists the free positions)."""
-        s = _state(ctx)
-        return _tool_result(await s.call("place", location, position))
-
-    @_tool(mcp, "Write to the scratchpad", ACTION)
-    async def add_to_scratchpad(
-        text: Annotated[str, Field(description="A thought, plan or observation to keep for this task", min_length=1)],
-        ctx: Context[AppState],
-    ) -> Annotated[CallToolResult, ScratchpadResult]:
-        """Write down thoughts and plans on the scratchpad, the working memory of the current task.
-        It is bounded: the oldest entries are dropped when it is full."""
-        s = _state(ctx)
-        return _tool_result(await s.call("add_to_scratchpad", text))
-
-    @_tool(mcp, "Read the scratchpad", READ_ONLY)
-    async def view_scratchpad(ctx: Context[AppState]) -> Annotated[CallToolResult, ScratchpadView]:
-        """Read everything written on the scratchpad during the current task, oldest first."""
-        s = _state(ctx)
-        return _tool_result(await s.call("view_scratchpad"))
-
-    @_tool(mcp, "End the task", ACTION)
-    async def end_task(
-        status: Annotated[
-            Literal["success", "failure"],
-            Field(description="'success' only if the task is really done, else 'failure'"),
-        ],
-        description: Annotated[str, Field(description="The task as you were given it", min_length=1)],
-        summary: Annotated[
-            str, Field(description="What you did, what went wrong, and what to do differently next time")
-        ],
-        ctx: Context[AppState],
-    ) -> Annotated[CallToolResult, EndTaskResult]:
-        """End the current task with a report. The report is stored in episodic memory, searchable
-        by the task description, so later tasks can learn from it."""
-        s = _state(ctx)
-        result = await s.call("end_task", status, description, summary, _model_label(ctx))
+    async def handler(ctx: Context[AppState], **arguments: Any) -> CallToolResult:
+        state = ctx.request_context.lifespan_context
+        caller = Caller(progress=_progress(ctx), model=_model_label(ctx))
+        result = await state.run(lambda session: session.invoke(tool, arguments, caller))
         return _tool_result(result)
 
-    @_tool(mcp, "Search episodic memory", READ_ONLY)
-    async def search_memory(
-        query: Annotated[str, Field(description="A description of the current task, e.g. its instruction")],
-        ctx: Context[AppState],
-        k: Annotated[int, Field(description="How many experiences to return", ge=1, le=20)] = 3,
-    ) -> Annotated[CallToolResult, MemorySearchResult]:
-        """Search past experiences (task reports written by end_task) by semantic similarity to the
-        query. Each result gives the task, how it ended and the summary of what was done."""
-        s = _state(ctx)
-        return _tool_result(await s.call("search_memory", query, k))
-
-
-class ClearMemoryResult(BaseModel):
-    """The outcome of clear_memory."""
-
-    removed: int = Field(description="records removed from this memory namespace")
-
-
-def register_eval_tools(mcp: MCPServer[AppState]) -> None:
-    """Controls for evaluation harnesses (the `eval` profile only)."""
-
-    @_tool(mcp, "Reset the world", ToolAnnotations(read_only_hint=False, destructive_hint=True, open_world_hint=False))
-    async def reset_world(
-        ctx: Context[AppState],
-        seed: Annotated[int | None, Field(description="Seed of the world's random generator")] = None,
-        randomize: Annotated[bool, Field(description="Start objects on seeded random free positions")] = False,
-        memory_labels: Annotated[
-            Literal["believed", "verified"] | None,
-            Field(description="What search_memory reports as an episode's status from now on"),
-        ] = None,
-    ) -> WorldState:
-        """Put the world back to its start state and begin a new episode. Episodic memory is kept."""
-        s = _state(ctx)
-        return await s.call("reset_world", seed, randomize, memory_labels)
-
-    @_tool(mcp, "Check a task", ToolAnnotations(read_only_hint=False, open_world_hint=False))
-    async def check_task(
-        task_id: Annotated[str, Field(description="A task id from robocog://tasks, e.g. 'T1'")],
-        ctx: Context[AppState],
-    ) -> TaskVerdict:
-        """The ground-truth verdict of a task for the world as it is now, with a reason per object.
-        If the episode ended with a report, the verdict is written into that memory record."""
-        s = _state(ctx)
-        return await s.call("check_task", task_id)
-
-    @_tool(
-        mcp,
-        "Clear episodic memory",
-        ToolAnnotations(read_only_hint=False, destructive_hint=True, open_world_hint=False),
-    )
-    async def clear_memory(ctx: Context[AppState]) -> ClearMemoryResult:
-        """Forget every stored episode in this server's memory namespace."""
-        s = _state(ctx)
-        return ClearMemoryResult(removed=await s.call("clear_memory"))
+    keyword = inspect.Parameter.KEYWORD_ONLY
+    parameters = [p.replace(kind=keyword) for p in tool.parameters]
+    context = inspect.Parameter("ctx", keyword, annotation=Context[AppState])
+    returns = Annotated[CallToolResult, tool.result_type]
+    handler.__signature__ = inspect.Signature([*parameters, context], return_annotation=returns)  # type: ignore[attr-defined]
+    handler.__annotations__ = {p.name: p.annotation for p in parameters} | {"ctx": Context[AppState], "return": returns}
+    handler.__name__ = handler.__qualname__ = tool.name
+    mcp.add_tool(handler, name=tool.name, title=tool.title, description=tool.description, annotations=tool.annotations)
 
 
 class _Current:
@@ -318,13 +152,13 @@ def register_resources(mcp: MCPServer[AppState], current: _Current) -> None:
     async def world_state() -> str:
         """Ground truth: the robot's location, pose and hand, each object's place, each position's occupant."""
         s = current.get()
-        return (await s.call("state")).model_dump_json(indent=2)
+        return (await s.run(lambda session: session.state())).model_dump_json(indent=2)
 
     @mcp.resource("robocog://world/map", name="world_map", title="Semantic map", mime_type="application/json")
     async def world_map() -> str:
         """The semantic map: locations with coordinates and neighbours, edges, place positions."""
         s = current.get()
-        return json.dumps(await s.call("semantic_map"), indent=2)
+        return json.dumps(await s.run(lambda session: session.semantic_map()), indent=2)
 
     @mcp.resource("robocog://world/image", name="world_image", title="Top-down view", mime_type="image/png")
     async def world_image() -> bytes:
@@ -370,7 +204,6 @@ def build_server(
     config: SessionConfig | None = None,
     *,
     profile: Profile = "default",
-    session_factory: Callable[[SessionConfig], RobotSession] | None = None,
     log_level: Literal["DEBUG", "INFO", "WARNING", "ERROR"] = "WARNING",
 ) -> MCPServer[AppState]:
     """The robocog MCP server for `config`; the `eval` profile adds the harness controls."""
@@ -384,12 +217,11 @@ def build_server(
         async def build() -> None:
             # In the background: the server answers initialize and tools/list meanwhile.
             try:
-                factory = session_factory
-                if factory is None:
-                    from robocog.server.session import RobotSession
+                from robocog.server.session import RobotSession
 
-                    factory = RobotSession
-                state._session = await anyio.to_thread.run_sync(factory, config)
+                session = await anyio.to_thread.run_sync(RobotSession, config)
+                await anyio.to_thread.run_sync(session.warm_up)
+                state._session = session
             except Exception as exc:  # reported to every caller, the server keeps running
                 logger.exception("the robot session could not be built")
                 state.failure = f"{type(exc).__name__}: {exc}"
@@ -414,9 +246,8 @@ def build_server(
         lifespan=lifespan,
         log_level=log_level,
     )
-    register_robot_tools(mcp)
-    if profile == "eval":
-        register_eval_tools(mcp)
+    for tool in ROBOT_TOOLS + (CONTROL_TOOLS if profile == "eval" else ()):
+        register_tool(mcp, tool)
     register_resources(mcp, current)
     register_prompts(mcp)
     return mcp

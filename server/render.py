@@ -49,7 +49,7 @@ def render_top_down(world: World, *, width_px: int = 1100, dpi: int = 100) -> by
     for name, (x, y) in points.items():
         ax.plot(x, y, "o", color="tab:green", ms=7)
         ax.annotate(name, (x, y), xytext=(6, -12), textcoords="offset points", fontsize=8, color="darkgreen")
-    colors = {o.spec.name: o.spec.color[:3] for o in world.objects.values()}
+    colors = {name: world.object_spec(name).color[:3] for name in world.object_names}
     stacked: dict[tuple[float, float], int] = {}  # objects on layers above each other share x, y
     for p in sorted(state.objects, key=lambda p: -p.xyz[2]):
         x, y, _ = p.xyz

@@ -25,7 +25,6 @@ ErrorCode = Literal[
     "position_occupied",
     "not_graspable",
     "place_failed",
-    "interrupted",
 ]
 
 

@@ -249,7 +249,6 @@ class RobotSpec(_Strict):
     )
     grasp_clearance: float = Field(default=0.01, description="metres above an object's top to aim the hand at")
     place_clearance: float = Field(default=0.005, description="metres above the surface to release an object")
-    location_tolerance: Positive = Field(default=0.3, description="metres: the robot is 'at' a location within this")
 
 
 def load_robot(path: Path) -> RobotSpec:

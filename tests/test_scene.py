@@ -9,13 +9,13 @@ from typing import Any
 import pytest
 import yaml
 
+from robocog.server.config import SessionConfig
+from robocog.server.session import RobotSession
+from robocog.server.tools import grab, look_around, move_to
 from robocog.server.world.world import DEFAULT_SCENE, World
 from robocog.shared.errors import ConfigError
 from robocog.shared.scene import Scene, load_scene
-from tests.test_world import PAPER_EDGES as PAPER_EDGE_LIST
-from tests.test_world import PAPER_LOCATIONS
-
-PAPER_EDGES = {frozenset(e) for e in PAPER_EDGE_LIST}
+from tests.helpers import PAPER_EDGES, PAPER_LOCATIONS, PAPER_POSITIONS
 
 
 @pytest.fixture(scope="module")
@@ -43,21 +43,14 @@ def scene_error(path: Path) -> str:
 def test_household_scene_has_the_papers_locations_and_edges() -> None:
     scene = load_scene(DEFAULT_SCENE)
     assert {loc.name: (loc.x, loc.y) for loc in scene.locations} == PAPER_LOCATIONS
-    assert {frozenset(e) for e in scene.edges} == PAPER_EDGES
+    assert {frozenset(e) for e in scene.edges} == {frozenset(e) for e in PAPER_EDGES}
     assert scene.robot_start == "Front Door"
 
 
 def test_household_scene_has_the_papers_place_positions_and_objects() -> None:
     scene = load_scene(DEFAULT_SCENE)
     assert {(p.location, p.name) for p in scene.place_positions} == {
-        ("Kitchen Shelf", "top"),
-        ("Kitchen Shelf", "middle"),
-        ("Kitchen Shelf", "bottom"),
-        ("Kitchen Table", "middle"),
-        ("Front Door", "floor"),
-        ("Hallway Area Door", "floor"),
-        ("Living Room", "floor"),
-        ("Kitchen Area Left", "floor"),
+        (location, position) for location, positions in PAPER_POSITIONS.items() for position in positions
     }
     starts = {o.name: (o.start.location, o.start.position) for o in scene.objects}
     assert starts["cube"] == ("Front Door", "floor")
@@ -208,7 +201,8 @@ def test_world_sees_an_object_added_to_the_scene(tmp_path: Path, household: dict
     with World(write_scene(tmp_path, extended_scene(household))) as world:
         ball = world.placement("ball")
         assert (ball.state, ball.location, ball.position) == ("on_position", "Coat Rack", "floor")
-        views = {v.name: v for v in world.look_around().locations}
+        robot = RobotSession(SessionConfig(), world=world)
+        views = {v.name: v for v in robot.call(look_around.TOOL).locations}
         assert views["Coat Rack"].objects == ["ball"]
         assert views["Coat Rack"].neighbours == ["Front Door"]
         assert "Coat Rack" in views["Front Door"].neighbours
@@ -219,10 +213,11 @@ def test_world_sees_an_object_added_to_the_scene(tmp_path: Path, household: dict
 
 def test_robot_can_fetch_an_object_added_to_the_scene(tmp_path: Path, household: dict[str, Any]) -> None:
     with World(write_scene(tmp_path, extended_scene(household))) as world:
-        moved = world.move_to("coat rack")
+        robot = RobotSession(SessionConfig(), world=world)
+        moved = robot.call(move_to.TOOL, location="coat rack")
         assert moved.status == "success", moved.message
         assert moved.path == ["Front Door", "Coat Rack"]
-        grabbed = world.grab("ball")
+        grabbed = robot.call(grab.TOOL, object="ball")
         assert grabbed.status == "success", grabbed.message
-        assert world.move_to("Front Door").status == "success"
+        assert robot.call(move_to.TOOL, location="Front Door").status == "success"
         assert world.holding == "ball"

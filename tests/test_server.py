@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import os
 from collections.abc import AsyncIterator
 from pathlib import Path
 from typing import Any
@@ -13,27 +12,9 @@ from mcp import Client
 
 from robocog.server.app import build_server
 from robocog.server.config import SessionConfig
-from robocog.server.world.demo import T1_SEQUENCE, T2_SEQUENCE
+from tests.helpers import ROBOT_TOOLS, T1_SEQUENCE, T2_SEQUENCE, action_args, check_snapshot
 
 pytestmark = pytest.mark.anyio
-SNAPSHOTS = Path(__file__).parent / "snapshots"
-ROBOT_TOOLS = {
-    "look_around",
-    "move_to",
-    "grab",
-    "place",
-    "add_to_scratchpad",
-    "view_scratchpad",
-    "end_task",
-    "search_memory",
-}
-
-
-def action_args(action: tuple[str, ...]) -> dict[str, str]:
-    """The MCP arguments of a (name, *args) world action."""
-    name, *args = action
-    keys = {"look_around": [], "move_to": ["location"], "grab": ["object"], "place": ["location", "position"]}[name]
-    return dict(zip(keys, args, strict=True))
 
 
 @pytest.fixture
@@ -72,18 +53,6 @@ async def contract(client: Client) -> dict[str, Any]:
         "prompts": [p.model_dump(mode="json", by_alias=True, exclude_none=True) for p in prompts],
         "resources": [r.model_dump(mode="json", by_alias=True, exclude_none=True) for r in resources],
     }
-
-
-def check_snapshot(name: str, value: dict[str, Any]) -> None:
-    path = SNAPSHOTS / f"{name}.json"
-    text = json.dumps(value, indent=2, sort_keys=True) + "\n"
-    if os.environ.get("ROBOCOG_UPDATE_SNAPSHOTS") == "1":
-        path.parent.mkdir(exist_ok=True)
-        path.write_text(text, encoding="utf-8")
-    assert path.exists(), f"no snapshot {path}; run with ROBOCOG_UPDATE_SNAPSHOTS=1 to create it"
-    assert json.loads(text) == json.loads(path.read_text(encoding="utf-8")), (
-        f"the MCP contract changed; if deliberate, update {path} with ROBOCOG_UPDATE_SNAPSHOTS=1"
-    )
 
 
 async def test_default_profile_contract_matches_snapshot(plain_robot: Client) -> None:

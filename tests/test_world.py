@@ -1,8 +1,11 @@
-"""The simulated world: start state, actions and their failures, the paper's tasks, invariants, determinism.
+"""The simulated world and the world tools: start state, actions and their failures, the paper's tasks,
+invariants, determinism.
 
-Real PyBullet throughout (no mocks). Most tests share one module-scoped `World` that the `world`
-fixture resets before each test; tests that need their own worlds (determinism, independence,
-custom scenes) build them.
+Real PyBullet throughout (no mocks). World-level behaviour (building, reset, ground truth, the
+physical primitives) is tested on the `World` API; the actions' results and failure messages through
+the tools, called with a `RobotSession` as the server calls them. Most tests share one module-scoped
+`World` that the `world` fixture resets before each test; tests that need their own worlds
+(determinism, independence, custom scenes) build them.
 """
 
 from __future__ import annotations
@@ -10,48 +13,35 @@ from __future__ import annotations
 import math
 import random
 from collections import Counter
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping, Sequence
+from typing import Any
 
 import pytest
 
-from robocog.server.world.demo import T1_SEQUENCE, T2_SEQUENCE, Action, perform, run_sequence
+from robocog.server.config import SessionConfig
+from robocog.server.session import RobotSession
+from robocog.server.tools import ROBOT_TOOLS, grab, look_around, move_to, place
+from robocog.server.tools.base import Caller, Tool
+from robocog.server.world.actions import Reach
 from robocog.server.world.tasks import evaluate, task_catalogue
 from robocog.server.world.world import DEFAULT_SCENE, World
 from robocog.shared.errors import WorldError
-from robocog.shared.results import ObjectPlacement
+from robocog.shared.results import ActionResult, ObjectPlacement
 from robocog.shared.scene import Location, load_scene
+from tests.helpers import (
+    PAPER_EDGES,
+    PAPER_LOCATIONS,
+    PAPER_POSITIONS,
+    T1_SEQUENCE,
+    T2_SEQUENCE,
+    Action,
+    action_args,
+    check_snapshot,
+)
 
-# The paper's semantic map (BRIEF.md, "The world").
-PAPER_EDGES = [
-    ("Hallway Area Door", "Front Door"),
-    ("Hallway Area Door", "Kitchen Door"),
-    ("Hallway Area Door", "Living Room Door"),
-    ("Kitchen Area Left", "Kitchen Door"),
-    ("Kitchen Area Left", "Kitchen Shelf"),
-    ("Kitchen Area Left", "Kitchen Table"),
-    ("Living Room", "Living Room Door"),
-    ("Living Room", "Living Room TV"),
-]
-PAPER_LOCATIONS = {
-    "Front Door": (0.0, 0.0),
-    "Hallway Area Door": (3.0, 0.0),
-    "Kitchen Door": (3.0, 2.0),
-    "Living Room Door": (3.0, -2.0),
-    "Living Room": (4.0, -4.0),
-    "Living Room TV": (8.0, -4.5),
-    "Kitchen Area Left": (3.0, 4.0),
-    "Kitchen Shelf": (1.0, 4.85),
-    "Kitchen Table": (6.0, 5.0),
-}
-PAPER_POSITIONS = {
-    "Kitchen Shelf": {"top", "middle", "bottom"},
-    "Kitchen Table": {"middle"},
-    "Front Door": {"floor"},
-    "Hallway Area Door": {"floor"},
-    "Living Room": {"floor"},
-    "Kitchen Area Left": {"floor"},
-}
 GRASPABLE = ("cube", "box", "mug")
+TOOLS: dict[str, Tool[Any]] = {t.name: t for t in ROBOT_TOOLS}
+RANDOMIZE = {"randomize": True}
 
 
 # --- fixtures and helpers ----------------------------------------------------------------------
@@ -70,11 +60,32 @@ def world(shared_world: World) -> World:
     return shared_world
 
 
+@pytest.fixture
+def robot(world: World) -> RobotSession:
+    """A session on the module's world (its memory is never opened)."""
+    return session_for(world)
+
+
+def session_for(world: World) -> RobotSession:
+    return RobotSession(SessionConfig(), world=world)
+
+
+def perform(robot: RobotSession, action: Action) -> ActionResult:
+    """Run one (tool name, *arguments) action through the session."""
+    arguments: dict[str, Any] = action_args(action)
+    result: ActionResult = robot.call(TOOLS[action[0]], **arguments)
+    return result
+
+
+def run_sequence(robot: RobotSession, actions: Sequence[Action]) -> list[ActionResult]:
+    return [perform(robot, a) for a in actions]
+
+
 def xyz(world: World) -> dict[str, tuple[float, float, float]]:
     return {name: p.xyz for name, p in world.placements().items()}
 
 
-def max_xyz_difference(a: dict[str, tuple[float, ...]], b: dict[str, tuple[float, ...]]) -> float:
+def max_xyz_difference(a: Mapping[str, Sequence[float]], b: Mapping[str, Sequence[float]]) -> float:
     assert a.keys() == b.keys()
     return max(abs(u - v) for name in a for u, v in zip(a[name], b[name], strict=True))
 
@@ -85,11 +96,11 @@ def layout(world: World) -> dict[str, tuple[str | None, str | None]]:
 
 def base_xy(world: World) -> tuple[float, float]:
     """The robot base's x, y as PyBullet has it (not the robot's bookkeeping)."""
-    (x, y, _), _ = world.client.getBasePositionAndOrientation(world.robot.base)
+    (x, y, _), _ = world.client.getBasePositionAndOrientation(world.sim.robot.base)
     return x, y
 
 
-def assert_all_succeeded(results: list, sequence: tuple[Action, ...]) -> None:
+def assert_all_succeeded(results: list[ActionResult], sequence: Sequence[Action]) -> None:
     failed = [(a, r.message) for a, r in zip(sequence, results, strict=True) if r.status != "success"]
     assert not failed, failed
 
@@ -120,7 +131,7 @@ def test_start_state_tv_is_loose_near_living_room_tv(world: World) -> None:
     assert tv.location == "Living Room TV"
     assert tv.resting  # on its table, not falling
     assert math.hypot(tv.xyz[0] - 8.0, tv.xyz[1] + 4.5) < 1.3
-    assert not world.objects["tv"].spec.graspable
+    assert not world.object_spec("tv").graspable
 
 
 def test_start_state_robot_at_front_door_holding_nothing(world: World) -> None:
@@ -133,33 +144,106 @@ def test_start_state_robot_at_front_door_holding_nothing(world: World) -> None:
     assert state.steps == world.steps == 0
 
 
+# --- ground truth ------------------------------------------------------------------------------
+
+
+def test_names_come_in_scene_order(world: World) -> None:
+    assert world.object_names == [o.name for o in world.scene.objects]
+    assert world.position_names("Kitchen Shelf") == ["top", "middle", "bottom"]
+    assert world.position_names("Kitchen Door") == []
+    assert world.object_spec("mug").name == "mug"
+
+
+def test_occupants_and_the_state_agree_with_the_placements(world: World) -> None:
+    assert world.occupant("Front Door", "floor") == "cube"
+    assert world.occupant("Front Door", "floor", ignore="cube") is None
+    assert world.occupant("Kitchen Shelf", "top") is None
+    state = world.state()
+    assert [p.object for p in state.objects] == world.object_names
+    taken = {(p.location, p.position): p.occupied_by for p in state.positions if p.occupied_by}
+    assert taken == {
+        ("Front Door", "floor"): "cube",
+        ("Living Room", "floor"): "box",
+        ("Kitchen Table", "middle"): "mug",
+    }
+    assert {(p.location, p.position) for p in state.positions} == {
+        (loc, pos) for loc, names in PAPER_POSITIONS.items() for pos in names
+    }
+
+
+def test_the_held_object_occupies_no_position(world: World) -> None:
+    assert world.pick("cube").ok
+    assert world.holding == "cube"
+    assert world.placement("cube").state == "held"
+    assert world.placement("cube").location == "Front Door"
+    assert world.occupant("Front Door", "floor") is None
+    assert world.state().robot.holding == "cube"
+
+
+# --- the physical primitives -------------------------------------------------------------------
+
+
+def test_drive_follows_the_given_path_and_reports_each_segment(world: World) -> None:
+    calls: list[tuple[float, float, str]] = []
+    driven = world.drive(["Front Door", "Hallway Area Door"], lambda *c: calls.append(c))
+    assert driven == pytest.approx(3.0)
+    assert calls == [(1, 1, "reached Hallway Area Door")]
+    assert world.robot_location() == "Hallway Area Door"
+    assert base_xy(world) == pytest.approx(PAPER_LOCATIONS["Hallway Area Door"], abs=1e-6)
+    assert world.steps > 0
+
+
+def test_pick_out_of_the_arms_reach_moves_nothing(world: World) -> None:
+    reach = world.pick("mug")  # on the kitchen table, metres away
+    assert (reach.ok, reach.failure) == (False, "unreachable")
+    assert reach.gap_m > world.robot_spec.grasp_threshold
+    assert world.holding is None
+    assert world.steps == 0
+
+
+def test_put_down_reports_where_the_object_came_to_rest(world: World) -> None:
+    assert world.pick("cube").ok
+    far = world.put_down("Kitchen Shelf", "top")
+    assert (far.ok, far.failure) == (False, "unreachable")
+    assert world.holding == "cube"
+    reach = world.put_down("Front Door", "floor")
+    assert reach.ok and reach.failure is None
+    assert reach.placement is not None
+    assert (reach.placement.state, reach.placement.location, reach.placement.position) == (
+        "on_position",
+        "Front Door",
+        "floor",
+    )
+    assert world.holding is None
+
+
 # --- look_around -------------------------------------------------------------------------------
 
 
-def test_look_around_reports_robot_and_hand(world: World) -> None:
-    result = world.look_around()
+def test_look_around_reports_robot_and_hand(robot: RobotSession) -> None:
+    result = robot.call(look_around.TOOL)
     assert result.status == "success"
     assert result.location == "Front Door"
     assert result.holding is None
     assert "Front Door" in result.message and "holding nothing" in result.message
 
 
-def test_look_around_lists_every_location_with_the_papers_neighbours(world: World) -> None:
-    views = {v.name: v for v in world.look_around().locations}
+def test_look_around_lists_every_location_with_the_papers_neighbours(robot: RobotSession) -> None:
+    views = {v.name: v for v in robot.call(look_around.TOOL).locations}
     assert set(views) == set(PAPER_LOCATIONS)
     for name, neighbours in expected_neighbours().items():
         assert set(views[name].neighbours) == neighbours, name
 
 
-def test_look_around_lists_objects_per_location(world: World) -> None:
-    views = {v.name: v for v in world.look_around().locations}
+def test_look_around_lists_objects_per_location(robot: RobotSession) -> None:
+    views = {v.name: v for v in robot.call(look_around.TOOL).locations}
     expected = {"Front Door": ["cube"], "Living Room": ["box"], "Kitchen Table": ["mug"], "Living Room TV": ["tv"]}
     for name, view in views.items():
         assert sorted(view.objects) == expected.get(name, []), name
 
 
-def test_look_around_lists_place_positions_with_occupants(world: World) -> None:
-    views = {v.name: v for v in world.look_around().locations}
+def test_look_around_lists_place_positions_with_occupants(robot: RobotSession) -> None:
+    views = {v.name: v for v in robot.call(look_around.TOOL).locations}
     occupants = {(name, pos.name): pos.occupied_by for name, view in views.items() for pos in view.place_positions}
     expected_keys = {(loc, pos) for loc, names in PAPER_POSITIONS.items() for pos in names}
     assert set(occupants) == expected_keys
@@ -168,16 +252,16 @@ def test_look_around_lists_place_positions_with_occupants(world: World) -> None:
         assert occupant == taken.get(key), key
 
 
-def test_look_around_changes_nothing(world: World) -> None:
+def test_look_around_changes_nothing(world: World, robot: RobotSession) -> None:
     before, steps = xyz(world), world.steps
-    world.look_around()
+    robot.call(look_around.TOOL)
     assert world.steps == steps
     assert xyz(world) == before
 
 
-def test_look_around_reports_the_held_object(world: World) -> None:
-    assert world.grab("cube").status == "success"
-    result = world.look_around()
+def test_look_around_reports_the_held_object(robot: RobotSession) -> None:
+    assert robot.call(grab.TOOL, object="cube").status == "success"
+    result = robot.call(look_around.TOOL)
     assert result.holding == "cube"
     assert "holding the cube" in result.message
     # A held object is in the hand, not lying at a location.
@@ -187,8 +271,8 @@ def test_look_around_reports_the_held_object(world: World) -> None:
 # --- move_to -----------------------------------------------------------------------------------
 
 
-def test_move_to_follows_the_shortest_path_and_arrives(world: World) -> None:
-    result = world.move_to("Kitchen Shelf")
+def test_move_to_follows_the_shortest_path_and_arrives(world: World, robot: RobotSession) -> None:
+    result = robot.call(move_to.TOOL, location="Kitchen Shelf")
     assert result.status == "success", result.message
     assert result.location == "Kitchen Shelf"
     assert result.path == ["Front Door", "Hallway Area Door", "Kitchen Door", "Kitchen Area Left", "Kitchen Shelf"]
@@ -199,15 +283,15 @@ def test_move_to_follows_the_shortest_path_and_arrives(world: World) -> None:
 
 
 @pytest.mark.parametrize("name", ["kitchen shelf", "KITCHEN_SHELF", "  Kitchen-Shelf "])
-def test_move_to_forgives_case_spaces_and_underscores(world: World, name: str) -> None:
-    result = world.move_to(name)
+def test_move_to_forgives_case_spaces_and_underscores(world: World, robot: RobotSession, name: str) -> None:
+    result = robot.call(move_to.TOOL, location=name)
     assert result.status == "success", result.message
     assert result.location == "Kitchen Shelf"
     assert base_xy(world) == pytest.approx(PAPER_LOCATIONS["Kitchen Shelf"], abs=1e-6)
 
 
-def test_move_to_where_the_robot_already_is(world: World) -> None:
-    result = world.move_to("Front Door")
+def test_move_to_where_the_robot_already_is(world: World, robot: RobotSession) -> None:
+    result = robot.call(move_to.TOOL, location="Front Door")
     assert result.status == "success"
     assert result.path == ["Front Door"]
     assert result.distance_m == 0
@@ -215,8 +299,8 @@ def test_move_to_where_the_robot_already_is(world: World) -> None:
     assert world.steps == 0
 
 
-def test_move_to_unknown_location_suggests_close_names(world: World) -> None:
-    result = world.move_to("Kitchen Shelve")
+def test_move_to_unknown_location_suggests_close_names(world: World, robot: RobotSession) -> None:
+    result = robot.call(move_to.TOOL, location="Kitchen Shelve")
     assert result.status == "failure"
     assert result.error == "unknown_location"
     assert result.suggestions[0] == "Kitchen Shelf"
@@ -230,7 +314,7 @@ def test_move_to_disconnected_location_reports_no_path() -> None:
     base = load_scene(DEFAULT_SCENE)
     scene = base.model_copy(update={"locations": [*base.locations, Location(name="Garage", x=-3.0, y=0.0)]})
     with World(scene) as w:
-        result = w.move_to("Garage")
+        result = session_for(w).call(move_to.TOOL, location="Garage")
         assert result.status == "failure"
         assert result.error == "no_path"
         assert "Front Door" in result.message and "Garage" in result.message
@@ -238,45 +322,38 @@ def test_move_to_disconnected_location_reports_no_path() -> None:
         assert w.steps == 0
 
 
-def test_move_to_reports_progress_per_segment(world: World) -> None:
+def test_move_to_reports_progress_per_segment(robot: RobotSession) -> None:
     calls: list[tuple[float, float, str]] = []
-    result = world.move_to("Living Room", progress=lambda done, total, msg: calls.append((done, total, msg)))
+    progress = lambda done, total, msg: calls.append((done, total, msg))  # noqa: E731
+    result = robot.invoke(move_to.TOOL, {"location": "Living Room"}, Caller(progress=progress))
     assert result.status == "success"
     assert [c[:2] for c in calls] == [(1, 3), (2, 3), (3, 3)]
     assert calls[-1][2].endswith("Living Room")
 
 
-def test_move_to_stops_at_the_location_reached_when_asked(world: World) -> None:
-    polls = iter([False, True])
-    result = world.move_to("Living Room", should_stop=lambda: next(polls))
-    assert result.status == "failure"
-    assert result.location == "Hallway Area Door"
-    assert world.robot_location() == "Hallway Area Door"
-    assert base_xy(world) == pytest.approx(PAPER_LOCATIONS["Hallway Area Door"], abs=1e-6)
-
-
 # --- grab --------------------------------------------------------------------------------------
 
 
-def test_grab_attaches_the_object_to_the_hand(world: World) -> None:
-    result = world.grab("cube")
+def test_grab_attaches_the_object_to_the_hand(world: World, robot: RobotSession) -> None:
+    result = robot.call(grab.TOOL, object="cube")
     assert result.status == "success", result.message
+    assert result.message == "Grabbed the cube from Front Door / floor."
     assert result.holding == "cube"
     assert world.holding == "cube"
     assert world.placement("cube").state == "held"
 
 
-def test_grabbed_object_travels_with_the_robot(world: World) -> None:
-    assert world.grab("cube").status == "success"
-    assert world.move_to("Kitchen Shelf").status == "success"
+def test_grabbed_object_travels_with_the_robot(world: World, robot: RobotSession) -> None:
+    assert robot.call(grab.TOOL, object="cube").status == "success"
+    assert robot.call(move_to.TOOL, location="Kitchen Shelf").status == "success"
     x, y, z = world.placement("cube").xyz
     bx, by = base_xy(world)
     assert math.hypot(x - bx, y - by) < 0.5
     assert z > 0.3  # carried above the base, not dragged along the floor
 
 
-def test_grab_unknown_object_suggests_close_names(world: World) -> None:
-    result = world.grab("cub")
+def test_grab_unknown_object_suggests_close_names(world: World, robot: RobotSession) -> None:
+    result = robot.call(grab.TOOL, object="cub")
     assert result.status == "failure"
     assert result.error == "unknown_object"
     assert result.suggestions == ["cube"]
@@ -284,8 +361,8 @@ def test_grab_unknown_object_suggests_close_names(world: World) -> None:
     assert world.holding is None
 
 
-def test_grab_object_at_another_location_is_out_of_reach(world: World) -> None:
-    result = world.grab("mug")
+def test_grab_object_at_another_location_is_out_of_reach(world: World, robot: RobotSession) -> None:
+    result = robot.call(grab.TOOL, object="mug")
     assert result.status == "failure"
     assert result.error == "out_of_reach"
     assert "Kitchen Table" in result.message
@@ -293,10 +370,10 @@ def test_grab_object_at_another_location_is_out_of_reach(world: World) -> None:
     assert world.placement("mug").position == "middle"
 
 
-def test_grab_while_holding_fails(world: World) -> None:
-    assert world.grab("cube").status == "success"
-    assert world.move_to("Living Room").status == "success"
-    result = world.grab("box")
+def test_grab_while_holding_fails(world: World, robot: RobotSession) -> None:
+    assert robot.call(grab.TOOL, object="cube").status == "success"
+    assert robot.call(move_to.TOOL, location="Living Room").status == "success"
+    result = robot.call(grab.TOOL, object="box")
     assert result.status == "failure"
     assert result.error == "already_holding"
     assert result.holding == "cube"
@@ -305,54 +382,77 @@ def test_grab_while_holding_fails(world: World) -> None:
     assert world.placement("box").state == "on_position"
 
 
-def test_grab_tv_is_not_graspable(world: World) -> None:
-    assert world.move_to("Living Room TV").status == "success"
+def test_grab_tv_is_not_graspable(world: World, robot: RobotSession) -> None:
+    assert robot.call(move_to.TOOL, location="Living Room TV").status == "success"
     before = world.placement("tv").xyz
-    result = world.grab("tv")
+    result = robot.call(grab.TOOL, object="tv")
     assert result.status == "failure"
     assert result.error == "not_graspable"
     assert world.holding is None
     assert world.placement("tv").xyz == pytest.approx(before, abs=1e-3)
 
 
+@pytest.mark.parametrize(
+    ("reach", "message"),
+    [
+        (
+            Reach(ok=False, failure="unreachable", gap_m=0.4),
+            "The arm cannot reach the cube from where the robot stands (0.40 m short).",
+        ),
+        (
+            Reach(ok=False, failure="missed", gap_m=0.12),
+            "The hand stopped 0.12 m from the cube; it could not be grasped from here.",
+        ),
+    ],
+)
+def test_grab_words_a_motion_that_falls_short(
+    world: World, robot: RobotSession, monkeypatch: pytest.MonkeyPatch, reach: Reach, message: str
+) -> None:
+    monkeypatch.setattr(world, "pick", lambda name: reach)
+    result = robot.call(grab.TOOL, object="cube")
+    assert (result.status, result.error, result.message) == ("failure", "out_of_reach", message)
+    assert (result.object, result.holding) == ("cube", None)
+
+
 # --- place -------------------------------------------------------------------------------------
 
 
-def test_place_puts_the_object_on_the_position_where_it_stays(world: World) -> None:
-    assert world.grab("cube").status == "success"
-    assert world.move_to("Kitchen Shelf").status == "success"
-    result = world.place("Kitchen Shelf", "top")
+def test_place_puts_the_object_on_the_position_where_it_stays(world: World, robot: RobotSession) -> None:
+    assert robot.call(grab.TOOL, object="cube").status == "success"
+    assert robot.call(move_to.TOOL, location="Kitchen Shelf").status == "success"
+    result = robot.call(place.TOOL, location="Kitchen Shelf", position="top")
     assert result.status == "success", result.message
     assert world.holding is None
     placed = world.placement("cube")
     assert (placed.state, placed.location, placed.position) == ("on_position", "Kitchen Shelf", "top")
     for _ in range(240):  # two more simulated seconds under gravity
-        world._step()
+        world.sim.step()
     after = world.placement("cube")
     assert (after.state, after.location, after.position) == ("on_position", "Kitchen Shelf", "top")
     assert after.resting
     assert after.xyz == pytest.approx(placed.xyz, abs=0.01)
 
 
-def test_place_with_nothing_held_fails(world: World) -> None:
-    result = world.place("Front Door", "floor")
+def test_place_with_nothing_held_fails(robot: RobotSession) -> None:
+    result = robot.call(place.TOOL, location="Front Door", position="floor")
     assert result.status == "failure"
     assert result.error == "nothing_held"
+    assert (result.object, result.location, result.position, result.holding) == (None, "Front Door", "floor", None)
 
 
-def test_place_away_from_the_location_fails(world: World) -> None:
-    assert world.grab("cube").status == "success"
-    result = world.place("Kitchen Shelf", "top")
+def test_place_away_from_the_location_fails(world: World, robot: RobotSession) -> None:
+    assert robot.call(grab.TOOL, object="cube").status == "success"
+    result = robot.call(place.TOOL, location="Kitchen Shelf", position="top")
     assert result.status == "failure"
     assert result.error == "not_at_location"
     assert "Front Door" in result.message and "Kitchen Shelf" in result.message
     assert world.holding == "cube"
 
 
-def test_place_on_unknown_position_lists_the_positions(world: World) -> None:
-    assert world.grab("cube").status == "success"
-    assert world.move_to("Kitchen Shelf").status == "success"
-    result = world.place("Kitchen Shelf", "ceiling")
+def test_place_on_unknown_position_lists_the_positions(world: World, robot: RobotSession) -> None:
+    assert robot.call(grab.TOOL, object="cube").status == "success"
+    assert robot.call(move_to.TOOL, location="Kitchen Shelf").status == "success"
+    result = robot.call(place.TOOL, location="Kitchen Shelf", position="ceiling")
     assert result.status == "failure"
     assert result.error == "unknown_position"
     for name in ("top", "middle", "bottom"):
@@ -362,26 +462,20 @@ def test_place_on_unknown_position_lists_the_positions(world: World) -> None:
     assert world.holding == "cube"
 
 
-def test_place_at_unknown_location_fails(world: World) -> None:
-    assert world.grab("cube").status == "success"
-    result = world.place("Kitchen Shelve", "top")
+def test_place_at_unknown_location_fails(world: World, robot: RobotSession) -> None:
+    assert robot.call(grab.TOOL, object="cube").status == "success"
+    result = robot.call(place.TOOL, location="Kitchen Shelve", position="top")
     assert result.status == "failure"
     assert result.error == "unknown_location"
     assert "Kitchen Shelf" in result.suggestions
+    assert (result.location, result.position, result.holding) == ("Kitchen Shelve", "top", "cube")
     assert world.holding == "cube"
 
 
-def test_place_on_occupied_position_names_occupant_and_free_positions(world: World) -> None:
-    setup: tuple[Action, ...] = (
-        ("grab", "cube"),
-        ("move_to", "Kitchen Shelf"),
-        ("place", "Kitchen Shelf", "top"),
-        ("move_to", "Living Room"),
-        ("grab", "box"),
-        ("move_to", "Kitchen Shelf"),
-    )
-    assert_all_succeeded(run_sequence(world, setup), setup)
-    result = world.place("Kitchen Shelf", "top")
+def test_place_on_occupied_position_names_occupant_and_free_positions(world: World, robot: RobotSession) -> None:
+    setup = T1_SEQUENCE[1:7]  # the cube onto the top layer, then back at the shelf with the box
+    assert_all_succeeded(run_sequence(robot, setup), setup)
+    result = robot.call(place.TOOL, location="Kitchen Shelf", position="top")
     assert result.status == "failure"
     assert result.error == "position_occupied"
     assert "cube" in result.message
@@ -389,6 +483,73 @@ def test_place_on_occupied_position_names_occupant_and_free_positions(world: Wor
     assert sorted(result.suggestions) == ["bottom", "middle"]
     assert world.holding == "box"
     assert world.placement("cube").position == "top"
+
+
+def test_place_words_a_motion_that_falls_short(
+    world: World, robot: RobotSession, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    assert robot.call(grab.TOOL, object="cube").status == "success"
+    monkeypatch.setattr(world, "put_down", lambda location, position: Reach(ok=False, failure="unreachable", gap_m=0.3))
+    result = robot.call(place.TOOL, location="Front Door", position="floor")
+    assert (result.status, result.error) == ("failure", "out_of_reach")
+    assert result.message == "The arm cannot reach the floor position of Front Door (0.30 m short)."
+    assert (result.object, result.location, result.position, result.holding) == ("cube", "Front Door", "floor", "cube")
+
+
+def test_place_reports_where_a_released_object_ended(
+    world: World, robot: RobotSession, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    assert robot.call(grab.TOOL, object="cube").status == "success"
+    rolled = ObjectPlacement(object="cube", state="loose", location="Front Door", xyz=(0.5, 0.0, 0.05), resting=False)
+    monkeypatch.setattr(
+        world, "put_down", lambda location, position: Reach(ok=False, failure="landed_elsewhere", placement=rolled)
+    )
+    result = robot.call(place.TOOL, location="front door", position="FLOOR")
+    assert (result.status, result.error) == ("failure", "place_failed")
+    assert result.message == (
+        "The cube was released but did not come to rest on Front Door / floor; it is near Front Door."
+    )
+    assert (result.object, result.location, result.position, result.holding) == ("cube", "Front Door", "floor", None)
+
+
+#: Every precondition of the world tools, one after another from the paper's start (and the moves between).
+PRECONDITIONS: tuple[Action, ...] = (
+    ("move_to", "Kitchen Shelve"),
+    ("grab", "cub"),
+    ("grab", "mug"),
+    ("place", "Front Door", "floor"),
+    ("grab", "cube"),
+    ("grab", "cube"),
+    ("place", "Kitchen Shelf", "top"),
+    ("place", "Kitchen Shelve", "top"),
+    ("place", "Front Door", "ceiling"),
+    ("move_to", "Living Room"),
+    ("grab", "box"),
+    ("place", "Living Room", "floor"),
+    ("move_to", "Kitchen Door"),
+    ("place", "Kitchen Door", "floor"),
+    ("move_to", "Hallway Area Door"),
+    ("place", "Hallway Area Door", "floor"),
+    ("move_to", "Living Room TV"),
+    ("grab", "tv"),
+)
+
+
+def test_world_tool_results_match_the_snapshot(robot: RobotSession) -> None:
+    results = [perform(robot, action).model_dump(mode="json") for action in PRECONDITIONS]
+    errors = [r["error"] for r in results]
+    assert set(errors) >= {
+        "unknown_location",
+        "unknown_object",
+        "out_of_reach",
+        "nothing_held",
+        "already_holding",
+        "not_at_location",
+        "unknown_position",
+        "position_occupied",
+        "not_graspable",
+    }, errors
+    check_snapshot("world_tool_results", {"results": [[*a, r] for a, r in zip(PRECONDITIONS, results, strict=True)]})
 
 
 # --- the paper's tasks -------------------------------------------------------------------------
@@ -404,8 +565,8 @@ def test_t2_is_false_at_the_start(world: World) -> None:
     assert not evaluate(task_catalogue()["T2"], start, start).success
 
 
-def test_t1_sequence_satisfies_t1(world: World) -> None:
-    assert_all_succeeded(run_sequence(world, T1_SEQUENCE), T1_SEQUENCE)
+def test_t1_sequence_satisfies_t1(world: World, robot: RobotSession) -> None:
+    assert_all_succeeded(run_sequence(robot, T1_SEQUENCE), T1_SEQUENCE)
     verdict = evaluate(task_catalogue()["T1"], world.placements())
     assert verdict.success, verdict.reason
     assert {name: world.placement(name).position for name in GRASPABLE} == {
@@ -415,12 +576,12 @@ def test_t1_sequence_satisfies_t1(world: World) -> None:
     }
 
 
-def test_t2_sequence_after_t1_satisfies_t2(world: World) -> None:
+def test_t2_sequence_after_t1_satisfies_t2(world: World, robot: RobotSession) -> None:
     t2 = task_catalogue()["T2"]
-    assert_all_succeeded(run_sequence(world, T1_SEQUENCE), T1_SEQUENCE)
+    assert_all_succeeded(run_sequence(robot, T1_SEQUENCE), T1_SEQUENCE)
     baseline = world.placements()
     assert not evaluate(t2, world.placements(), baseline).success  # nothing swapped yet
-    assert_all_succeeded(run_sequence(world, T2_SEQUENCE), T2_SEQUENCE)
+    assert_all_succeeded(run_sequence(robot, T2_SEQUENCE), T2_SEQUENCE)
     verdict = evaluate(t2, world.placements(), baseline)
     assert verdict.success, verdict.reason
     assert world.placement("mug").position == baseline["cube"].position
@@ -479,12 +640,12 @@ def _check_invariants(world: World, context: str) -> None:
 
 
 @pytest.mark.parametrize("seed", [10, 11, 14])
-def test_invariants_hold_after_every_action_of_a_random_sequence(world: World, seed: int) -> None:
+def test_invariants_hold_after_every_action_of_a_random_sequence(world: World, robot: RobotSession, seed: int) -> None:
     rng = random.Random(seed)
     outcomes: Counter[tuple[str, str]] = Counter()
     for i in range(15):
         action = _random_action(rng, world)
-        result = perform(world, action)
+        result = perform(robot, action)
         outcomes[(action[0], result.status)] += 1
         _check_invariants(world, f"seed {seed}, action {i}: {action} -> {result.status} {result.error}")
     # The sequence did exercise the physics (not only failures).
@@ -510,16 +671,16 @@ def _scripted_actions(world: World) -> tuple[Action, ...]:
 
 
 def test_same_seed_gives_identical_worlds_at_start() -> None:
-    with World(seed=7, randomize=True) as a, World(seed=7, randomize=True) as b:
+    with World(seed=7, options=RANDOMIZE) as a, World(seed=7, options=RANDOMIZE) as b:
         assert layout(a) == layout(b)
         assert max_xyz_difference(xyz(a), xyz(b)) <= 1e-9
 
 
 def test_same_seed_gives_identical_worlds_after_the_same_actions() -> None:
-    with World(seed=7, randomize=True) as a, World(seed=7, randomize=True) as b:
+    with World(seed=7, options=RANDOMIZE) as a, World(seed=7, options=RANDOMIZE) as b:
         actions = _scripted_actions(a)
-        results_a = [r.model_dump() for r in run_sequence(a, actions)]
-        results_b = [r.model_dump() for r in run_sequence(b, actions)]
+        results_a = [r.model_dump() for r in run_sequence(session_for(a), actions)]
+        results_b = [r.model_dump() for r in run_sequence(session_for(b), actions)]
         assert results_a == results_b
         assert all(r["status"] == "success" for r in results_a), results_a
         assert a.steps == b.steps
@@ -527,12 +688,12 @@ def test_same_seed_gives_identical_worlds_after_the_same_actions() -> None:
 
 
 def test_different_seeds_give_different_layouts() -> None:
-    with World(seed=7, randomize=True) as a, World(seed=8, randomize=True) as b:
+    with World(seed=7, options=RANDOMIZE) as a, World(seed=8, options=RANDOMIZE) as b:
         assert layout(a) != layout(b)
 
 
 def test_randomized_layout_puts_each_item_resting_on_its_own_position() -> None:
-    with World(seed=3, randomize=True) as w:
+    with World(seed=3, options=RANDOMIZE) as w:
         placements = w.placements()
         for name in GRASPABLE:
             assert placements[name].state == "on_position", placements[name]
@@ -543,18 +704,31 @@ def test_randomized_layout_puts_each_item_resting_on_its_own_position() -> None:
 
 def test_reset_with_the_same_seed_twice_gives_the_same_layout() -> None:
     with World() as w:
-        w.reset(seed=11, randomize=True)
+        w.reset(seed=11, options=RANDOMIZE)
         first, first_steps = xyz(w), w.steps
-        w.reset(seed=11, randomize=True)
+        w.reset(seed=11, options=RANDOMIZE)
         assert max_xyz_difference(first, xyz(w)) <= 1e-9
         assert w.steps == first_steps
 
 
+def test_reset_without_a_seed_continues_the_worlds_generator() -> None:
+    with World(seed=7) as a, World(seed=7) as b:
+        a.reset(options=RANDOMIZE)
+        b.reset(options=RANDOMIZE)
+        first = layout(a)
+        assert first == layout(b)  # the same generator state: the same draw
+        a.reset(options=RANDOMIZE)
+        b.reset(seed=7, options=RANDOMIZE)
+        assert layout(b) == first  # reseeded: the first draw again
+        assert a.seed == b.seed == 7
+
+
 def test_reset_restores_static_setup_after_moves(world: World) -> None:
     reference = xyz(world)
-    assert world.move_to("Kitchen Table").status == "success"
-    world.reset(seed=5, randomize=True)
-    world.move_to("Living Room")
+    robot = session_for(world)
+    assert robot.call(move_to.TOOL, location="Kitchen Table").status == "success"
+    world.reset(seed=5, options=RANDOMIZE)
+    robot.call(move_to.TOOL, location="Living Room")
     world.reset()
     assert world.robot_location() == "Front Door"
     assert base_xy(world) == pytest.approx((0.0, 0.0), abs=1e-9)
@@ -564,7 +738,7 @@ def test_reset_restores_static_setup_after_moves(world: World) -> None:
 
 def test_reset_restores_static_setup_after_the_t1_sequence() -> None:
     with World() as fresh, World() as w:
-        assert_all_succeeded(run_sequence(w, T1_SEQUENCE), T1_SEQUENCE)
+        assert_all_succeeded(run_sequence(session_for(w), T1_SEQUENCE), T1_SEQUENCE)
         w.reset()
         assert w.holding is None
         assert w.robot_location() == "Front Door"
@@ -574,23 +748,36 @@ def test_reset_restores_static_setup_after_the_t1_sequence() -> None:
 
 
 def test_reset_with_a_seed_after_an_episode_matches_a_fresh_world_with_that_seed() -> None:
-    with World(seed=7, randomize=True) as fresh, World() as used:
-        assert_all_succeeded(run_sequence(used, T1_SEQUENCE), T1_SEQUENCE)
-        used.reset(seed=7, randomize=True)
+    with World(seed=7, options=RANDOMIZE) as fresh, World() as used:
+        assert_all_succeeded(run_sequence(session_for(used), T1_SEQUENCE), T1_SEQUENCE)
+        used.reset(seed=7, options=RANDOMIZE)
         assert layout(used) == layout(fresh)
         assert max_xyz_difference(xyz(fresh), xyz(used)) <= 1e-9
 
 
 def test_reset_with_the_same_seed_twice_after_earlier_resets_gives_the_same_layout() -> None:
     with World() as w:
-        assert w.move_to("Kitchen Table").status == "success"
-        w.reset(seed=5, randomize=True)
-        assert w.move_to("Living Room").status == "success"
+        robot = session_for(w)
+        assert robot.call(move_to.TOOL, location="Kitchen Table").status == "success"
+        w.reset(seed=5, options=RANDOMIZE)
+        assert robot.call(move_to.TOOL, location="Living Room").status == "success"
         w.reset()
-        w.reset(seed=11, randomize=True)
+        w.reset(seed=11, options=RANDOMIZE)
         first = xyz(w)
-        w.reset(seed=11, randomize=True)
+        w.reset(seed=11, options=RANDOMIZE)
         assert max_xyz_difference(first, xyz(w)) <= 1e-9
+
+
+def test_reset_takes_keywords_and_names_an_unknown_option(world: World) -> None:
+    with pytest.raises(TypeError):
+        world.reset(5)  # type: ignore[call-arg]
+    with pytest.raises(WorldError, match="shuffle"):
+        world.reset(options={"shuffle": True})
+    with pytest.raises(WorldError, match="randomize"):
+        world.reset(options={"randomize": "yes"})
+    with pytest.raises(WorldError, match="shuffle"):
+        World(options={"shuffle": True})
+    assert world.reset(options={"randomize": False}).robot.location == "Front Door"
 
 
 # --- independence ------------------------------------------------------------------------------
@@ -604,14 +791,14 @@ def test_two_worlds_in_one_process_do_not_interfere() -> None:
             ("move_to", "Kitchen Shelf"),
             ("place", "Kitchen Shelf", "top"),
         )
-        assert_all_succeeded(run_sequence(a, actions), actions)
+        assert_all_succeeded(run_sequence(session_for(a), actions), actions)
         assert b.steps == steps_b
         assert xyz(b) == before_b
         assert b.robot_location() == "Front Door"
         assert b.holding is None
         # And the other way round.
         before_a, steps_a = xyz(a), a.steps
-        assert b.move_to("Living Room").status == "success"
+        assert session_for(b).call(move_to.TOOL, location="Living Room").status == "success"
         assert a.steps == steps_a
         assert xyz(a) == before_a
 

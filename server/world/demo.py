@@ -1,16 +1,21 @@
-"""The paper's tasks as fixed action sequences, run directly on the world (no MCP, no model).
+"""The paper's tasks as fixed action sequences, run through the robot's tools (no MCP, no model).
 
 `python -m robocog.server.world.demo` runs T1 then T2 and prints every action's result and the
-ground-truth verdicts. The same sequences serve the tests and the benchmark.
+ground-truth verdicts.
 """
 
 from __future__ import annotations
 
 import argparse
+import inspect
 import sys
 import time
 from collections.abc import Sequence
+from typing import Any
 
+from robocog.server.config import SessionConfig
+from robocog.server.session import RobotSession
+from robocog.server.tools import ROBOT_TOOLS
 from robocog.server.world.tasks import evaluate, task_catalogue
 from robocog.server.world.world import World
 from robocog.shared.results import ActionResult
@@ -47,19 +52,17 @@ T2_SEQUENCE: tuple[Action, ...] = (
     ("place", "Kitchen Shelf", "bottom"),
 )
 
+WORLD_TOOLS = {t.name: t for t in ROBOT_TOOLS if t.name in ("look_around", "move_to", "grab", "place")}
 
-def perform(world: World, action: Action) -> ActionResult:
-    """Run one (name, *args) action on the world."""
+
+def perform(robot: RobotSession, action: Action) -> ActionResult:
+    """Run one (tool name, *arguments) action through the session."""
     name, *args = action
-    if name not in ("look_around", "move_to", "grab", "place"):
-        raise ValueError(f"unknown action {name!r}")
-    result: ActionResult = getattr(world, name)(*args)
+    tool = WORLD_TOOLS[name]
+    keys = list(inspect.signature(tool.run).parameters)[1:]
+    arguments: dict[str, Any] = dict(zip(keys, args, strict=True))
+    result: ActionResult = robot.call(tool, **arguments)
     return result
-
-
-def run_sequence(world: World, actions: Sequence[Action]) -> list[ActionResult]:
-    """Run the actions in order; returns every result (failures included)."""
-    return [perform(world, a) for a in actions]
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -70,13 +73,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     tasks = task_catalogue()
     ok = True
     with World(seed=args.seed, gui=args.gui) as world:
+        robot = RobotSession(SessionConfig(), world=world)
         for task_id, sequence in (("T1", T1_SEQUENCE), ("T2", T2_SEQUENCE)):
             task = tasks[task_id]
             print(f"[SYSTEM] Executing prompt: {task.prompt!r}")
             baseline = world.placements()
             start = time.perf_counter()
             for action in sequence:
-                result = perform(world, action)
+                result = perform(robot, action)
                 call = f"{action[0]}({', '.join(repr(a) for a in action[1:])})"
                 print(f"[TOOL] {call}")
                 print(f"[TOOL-RESPONSE] {result.status}: {result.message}")

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import difflib
 import heapq
-import itertools
 import math
 import re
 
@@ -83,9 +82,6 @@ class SemanticMap:
                     came_from[nxt] = node
                     heapq.heappush(frontier, (new_cost + self.distance(nxt, goal), new_cost, nxt))
         return None
-
-    def path_length(self, path: list[str]) -> float:
-        return sum(self.distance(a, b) for a, b in itertools.pairwise(path))
 
     def nearest(self, x: float, y: float) -> tuple[str, float]:
         """The location closest to (x, y) and its distance."""

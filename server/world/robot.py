@@ -68,8 +68,7 @@ class Robot:
         self._forces = [500.0] * len(self.joints)
         # The robot's bodies collide with nothing: the arm reaches kinematically through furniture, the
         # base only ever stops at locations (away from place positions), and a held object must not
-        # fight the body carrying it. Set once here: changing collision filters later would break
-        # PyBullet's restoreState, which World.reset relies on.
+        # fight the body carrying it.
         for link in range(-1, client.getNumJoints(self.arm)):
             client.setCollisionFilterGroupMask(self.arm, link, 0, 0)
         client.setCollisionFilterGroupMask(self.base, -1, 0, 0)
@@ -105,11 +104,11 @@ class Robot:
     def end_effector(self) -> Vec3:
         """World position of the end effector (forward kinematics of the current joints)."""
         state = self.client.getLinkState(self.arm, self.ee, computeForwardKinematics=True)
-        return tuple(state[4])  # type: ignore[return-value]
+        return tuple(state[4])
 
     def end_effector_pose(self) -> tuple[Vec3, tuple[float, float, float, float]]:
         state = self.client.getLinkState(self.arm, self.ee, computeForwardKinematics=True)
-        return tuple(state[4]), tuple(state[5])  # type: ignore[return-value]
+        return tuple(state[4]), tuple(state[5])
 
     def solve_ik(self, target: Vec3) -> tuple[list[float], float]:
         """Joint angles that bring the end effector to `target`, and the remaining error in metres.

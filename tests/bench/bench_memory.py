@@ -13,6 +13,7 @@ import statistics
 import tempfile
 import time
 from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 
 from robocog.server.memory.embedding import embed
@@ -94,10 +95,10 @@ def run() -> dict[str, float]:
 
     sentences = [_task(rng) for _ in range(EMBED_SINGLE)]
     embed(sentences[:4])  # warm up (model load, integrity check)
-    single = [_time(lambda s=s: embed([s])) for s in sentences]
+    single = [_time(partial(embed, [s])) for s in sentences]
     results["embed.single_p50_ms"], results["embed.single_p95_ms"] = _ms_percentiles(single)
     batches = [[_task(rng) for _ in range(BATCH)] for _ in range(EMBED_BATCHES)]
-    batch_times = [_time(lambda b=b: embed(b)) for b in batches]
+    batch_times = [_time(partial(embed, b)) for b in batches]
     results["embed.batch32_per_sentence_ms"] = round(statistics.median(batch_times) / BATCH * 1000, 3)
 
     with tempfile.TemporaryDirectory() as tmp, EpisodicMemory(Path(tmp), namespace="bench") as memory:
@@ -109,11 +110,11 @@ def run() -> dict[str, float]:
 
         queries = [_task(rng) for _ in range(SEARCHES)]
         memory.search(queries[0])  # warm up
-        searches = [_time(lambda q=q: memory.search(q, k=3)) for q in queries]
+        searches = [_time(partial(memory.search, q, k=3)) for q in queries]
         results["memory.search_p50_ms"], results["memory.search_p95_ms"] = _ms_percentiles(searches)
 
         writes = [_entry(rng, RECORDS + i) for i in range(WRITES)]
-        adds = [_time(lambda e=e: memory.add(**e)) for e in writes]
+        adds = [_time(partial(memory.add, **e)) for e in writes]
         results["memory.add_p50_ms"], results["memory.add_p95_ms"] = _ms_percentiles(adds)
     if hasattr(os, "getloadavg"):
         results["host.loadavg_1m_end"] = round(os.getloadavg()[0], 2)

@@ -8,11 +8,21 @@ from __future__ import annotations
 
 import json
 import statistics
+import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
 
-from robocog.server.world.demo import T1_SEQUENCE, T2_SEQUENCE, run_sequence
+from robocog.server.config import SessionConfig
+from robocog.server.session import RobotSession
+from robocog.server.tools import ROBOT_TOOLS, move_to
+from robocog.server.tools.base import Tool
 from robocog.server.world.world import World
+from robocog.shared.results import ActionResult
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository, for tests.helpers
+from tests.helpers import T1_SEQUENCE, T2_SEQUENCE, Action, action_args
 
 BUILD_RUNS = 5
 RESET_RUNS = 5
@@ -42,6 +52,15 @@ def _check(results: list, what: str) -> None:
         raise RuntimeError(f"{what}: {len(failed)} action(s) failed: {failed}")
 
 
+TOOLS: dict[str, Tool[Any]] = {t.name: t for t in ROBOT_TOOLS}
+
+
+def run_sequence(robot: RobotSession, actions: Sequence[Action]) -> list[ActionResult]:
+    """The actions through the tools, as the server runs them (minus MCP)."""
+    calls: list[tuple[Tool[Any], dict[str, Any]]] = [(TOOLS[a[0]], action_args(a)) for a in actions]
+    return [robot.call(tool, **arguments) for tool, arguments in calls]
+
+
 def _build_and_reset() -> World:
     world = World()
     world.reset()
@@ -62,12 +81,13 @@ def _measure() -> dict[str, float | int | bool]:
     out["world.build_reset_min_s"] = round(min(build), 4)
 
     world = World()
+    robot = RobotSession(SessionConfig(), world=world)
     try:
         # reset() of a world that has run an episode (the usual case between episodes).
         resets: list[float] = []
         for _ in range(RESET_RUNS):
             world.reset()
-            world.move_to("Kitchen Shelf")
+            robot.call(move_to.TOOL, location="Kitchen Shelf")
             resets.append(_timed(world.reset))
         out["world.reset_s"] = round(statistics.median(resets), 5)
 
@@ -77,7 +97,7 @@ def _measure() -> dict[str, float | int | bool]:
         for _ in range(T1_RUNS):
             world.reset()
             start = time.perf_counter()
-            results = run_sequence(world, T1_SEQUENCE)
+            results = run_sequence(robot, T1_SEQUENCE)
             t1.append(time.perf_counter() - start)
             _check(results, "T1")
             t1_steps = world.steps
@@ -106,7 +126,8 @@ def _measure() -> dict[str, float | int | bool]:
 
         # Where an episode's time goes: the share spent inside stepSimulation, and its cost per step.
         world.reset()
-        stepping = world._step_simulation
+        sim = world.sim  # reset builds a new Sim: instrument the one the episode runs on
+        stepping = sim._step_simulation
         in_step = [0.0]
 
         def timed_step() -> None:
@@ -114,13 +135,13 @@ def _measure() -> dict[str, float | int | bool]:
             stepping()
             in_step[0] += time.perf_counter() - start
 
-        world._step_simulation = timed_step  # type: ignore[method-assign]
+        sim._step_simulation = timed_step
         try:
             start = time.perf_counter()
-            _check(run_sequence(world, T1_SEQUENCE), "T1 (instrumented)")
+            _check(run_sequence(robot, T1_SEQUENCE), "T1 (instrumented)")
             total = time.perf_counter() - start
         finally:
-            world._step_simulation = stepping  # type: ignore[method-assign]
+            sim._step_simulation = stepping
         out["world.t1_step_share"] = round(in_step[0] / total, 3)
         out["world.t1_episode_step_us"] = round(in_step[0] / world.steps * 1e6, 2)
         # The episode's wall time over the time its own stepSimulation calls took: what the action
@@ -132,10 +153,10 @@ def _measure() -> dict[str, float | int | bool]:
         t2_steps = 0
         for _ in range(T2_RUNS):
             world.reset()
-            _check(run_sequence(world, T1_SEQUENCE), "T1 before T2")
+            _check(run_sequence(robot, T1_SEQUENCE), "T1 before T2")
             before = world.steps
             start = time.perf_counter()
-            results = run_sequence(world, T2_SEQUENCE)
+            results = run_sequence(robot, T2_SEQUENCE)
             t2.append(time.perf_counter() - start)
             _check(results, "T2")
             t2_steps = world.steps - before

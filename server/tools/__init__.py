@@ -1,0 +1,26 @@
+"""Every tool the server publishes, one module each (or one per small family), in one list.
+
+Adding a tool: write `robocog/server/tools/NAME.py` with its run function and `TOOL = Tool(...)`
+(see `base.py`), then add it to `ROBOT_TOOLS` (or `CONTROL_TOOLS`) below. The app registers these
+lists generically; the contract snapshot in tests/snapshots shows the change.
+"""
+
+from robocog.server.tools import controls, end_task, grab, look_around, move_to, place, scratchpad, search_memory
+from robocog.server.tools.base import Tool
+
+#: Offered to models, in the paper's order.
+ROBOT_TOOLS: tuple[Tool, ...] = (
+    look_around.TOOL,
+    move_to.TOOL,
+    grab.TOOL,
+    place.TOOL,
+    scratchpad.ADD,
+    scratchpad.VIEW,
+    end_task.TOOL,
+    search_memory.TOOL,
+)
+
+#: The eval profile's harness controls (never offered to a model).
+CONTROL_TOOLS: tuple[Tool, ...] = (controls.RESET_WORLD, controls.CHECK_TASK, controls.CLEAR_MEMORY)
+
+__all__ = ["CONTROL_TOOLS", "ROBOT_TOOLS", "Tool"]

@@ -1,0 +1,87 @@
+"""What a tool is: one unit holding its name, title, annotations, arguments and behaviour.
+
+A tool's behaviour is a plain function `run(robot, **arguments) -> Result`: `robot` is the
+`RobotSession` (its world, memory, scratchpad and episode), the other parameters are the tool's
+arguments, typed with `Annotated[..., Field(description=...)]` so that the MCP input schema explains
+itself, and the return annotation is the pydantic result model (the MCP output schema). The
+function's docstring is the tool's description. A failure the model could have avoided is a result
+with `status="failure"`, an error code and a message to act on; a `ValueError` raised by `run` is
+bad input, reported to the caller as a tool error with its message.
+
+The MCP app registers every `Tool` of `robocog.server.tools` generically; nothing here imports the
+MCP server, so a tool is tested by calling `run` with a session.
+"""
+
+from __future__ import annotations
+
+import inspect
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, Generic, Literal, TypeVar
+
+from mcp_types import ToolAnnotations
+from pydantic import BaseModel
+
+R = TypeVar("R", bound=BaseModel)
+
+#: Called with (done, total, message) while a long action runs; the app turns it into MCP progress.
+ProgressFn = Callable[[float, float, str], None]
+
+READ_ONLY = ToolAnnotations(read_only_hint=True, open_world_hint=False)
+ACTION = ToolAnnotations(read_only_hint=False, destructive_hint=False, idempotent_hint=False, open_world_hint=False)
+IDEMPOTENT_ACTION = ToolAnnotations(
+    read_only_hint=False, destructive_hint=False, idempotent_hint=True, open_world_hint=False
+)
+DESTRUCTIVE = ToolAnnotations(read_only_hint=False, destructive_hint=True, open_world_hint=False)
+CONTROL = ToolAnnotations(read_only_hint=False, open_world_hint=False)
+
+
+@dataclass(frozen=True)
+class Caller:
+    """Who is calling, for the duration of one call: a progress sink and the driving model's label."""
+
+    progress: ProgressFn | None = None
+    model: str | None = None
+
+    def report(self, done: float, total: float, message: str) -> None:
+        if self.progress is not None:
+            self.progress(done, total, message)
+
+
+@dataclass(frozen=True, eq=False)
+class Tool(Generic[R]):
+    """One tool: its MCP metadata and the function that does the work (compared by identity)."""
+
+    name: str
+    title: str
+    annotations: ToolAnnotations
+    run: Callable[..., R]
+    #: "robot": offered to models in every profile; "control": the eval profile's harness controls.
+    kind: Literal["robot", "control"] = "robot"
+
+    @property
+    def description(self) -> str:
+        return inspect.cleandoc(self.run.__doc__ or "")
+
+    @property
+    def counts_as_episode_call(self) -> bool:
+        """Robot tools are the episode's tool calls; a harness's controls are not."""
+        return self.kind == "robot"
+
+    @property
+    def parameters(self) -> list[inspect.Parameter]:
+        """The tool's arguments: `run`'s parameters after the session, their annotations resolved."""
+        _, *arguments = inspect.signature(self.run).parameters.values()
+        return [p.replace(annotation=self._resolve(p.annotation)) for p in arguments]
+
+    @property
+    def result_type(self) -> type[R]:
+        result: type[R] = self._resolve(inspect.signature(self.run).return_annotation)
+        return result
+
+    def _resolve(self, annotation: object) -> Any:
+        """An annotation written as a string (`from __future__ import annotations`) as the type it names.
+        The session parameter is never resolved: tool modules import its type only for type checking."""
+        if isinstance(annotation, str):
+            return eval(annotation, self.run.__globals__)
+        return annotation

@@ -1,0 +1,46 @@
+"""add_to_scratchpad(text) and view_scratchpad: the working memory of the current task."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Annotated
+
+from pydantic import Field
+
+from robocog.server.tools.base import ACTION, READ_ONLY, Tool
+from robocog.shared.results import ScratchpadResult, ScratchpadView
+
+if TYPE_CHECKING:
+    from robocog.server.session import RobotSession
+
+TextArg = Annotated[str, Field(description="A thought, plan or observation to keep for this task", min_length=1)]
+
+
+def add_to_scratchpad(robot: RobotSession, text: TextArg) -> ScratchpadResult:
+    """Write down thoughts and plans on the scratchpad, the working memory of the current task.
+    It is bounded: the oldest entries are dropped when it is full."""
+    pad = robot.scratchpad
+    try:
+        added = pad.add(text)
+    except ValueError as exc:
+        return ScratchpadResult(status="failure", message=str(exc), entries=len(pad))
+    note = f" The {added.dropped} oldest entries were dropped to make room." if added.dropped else ""
+    return ScratchpadResult(
+        status="success",
+        message=f"Written to the scratchpad ({added.entries} entries).{note}",
+        entries=added.entries,
+        dropped=added.dropped,
+    )
+
+
+def view_scratchpad(robot: RobotSession) -> ScratchpadView:
+    """Read everything written on the scratchpad during the current task, oldest first."""
+    n = len(robot.scratchpad)
+    return ScratchpadView(
+        message=f"The scratchpad has {n} entries." if n else "The scratchpad is empty.",
+        content=robot.scratchpad.view(),
+        entries=n,
+    )
+
+
+ADD = Tool("add_to_scratchpad", "Write to the scratchpad", ACTION, add_to_scratchpad)
+VIEW = Tool("view_scratchpad", "Read the scratchpad", READ_ONLY, view_scratchpad)

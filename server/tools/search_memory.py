@@ -1,0 +1,50 @@
+"""search_memory(query, k): past task reports, by semantic similarity to the query."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Annotated
+
+from pydantic import Field
+
+from robocog.server.tools.base import READ_ONLY, Tool
+from robocog.shared.memory import MemoryRecord
+from robocog.shared.results import Experience, MemorySearchResult
+
+if TYPE_CHECKING:
+    from robocog.server.session import RobotSession
+
+QueryArg = Annotated[str, Field(description="A description of the current task, e.g. its instruction")]
+KArg = Annotated[int, Field(description="How many experiences to return", ge=1, le=20)]
+
+
+def search_memory(robot: RobotSession, query: QueryArg, k: KArg = 3) -> MemorySearchResult:
+    """Search past experiences (task reports written by end_task) by semantic similarity to the
+    query. Each result gives the task, how it ended and the summary of what was done."""
+    if not query.strip():
+        return MemorySearchResult(
+            status="failure", message="The query is empty: describe the task you want experiences of."
+        )
+    hits = robot.memory.search(query, k or robot.config.search_k)
+    results = [_experience(h.record, h.distance, verified=robot.memory_labels == "verified") for h in hits]
+    message = (
+        f"The query returned {len(results)} results of previous experiences."
+        if results
+        else "No previous experiences are stored yet."
+    )
+    return MemorySearchResult(status="success", message=message, results=results)
+
+
+def _experience(record: MemoryRecord, distance: float, *, verified: bool) -> Experience:
+    """A record as the agent sees it: with `verified`, the ground-truth outcome where it is known."""
+    checked = record.verified_status if verified else None
+    return Experience(
+        task_description=record.task_description,
+        status=checked or record.believed_status,
+        status_source="verified" if checked else "believed",
+        summary=record.summary,
+        when=record.created_at,
+        distance=round(distance, 4),
+    )
+
+
+TOOL = Tool("search_memory", "Search episodic memory", READ_ONLY, search_memory)

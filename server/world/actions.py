@@ -1,0 +1,186 @@
+"""The robot's physical actions over a `Sim`: driving, arm motions, picking up and putting down.
+
+These are motions, not tools: they assume their preconditions hold (the tools in
+`robocog.server.tools` check those and word the failures) and report only what physics decides,
+as a `Reach`: whether the arm got there, and if not by how much it missed.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import itertools
+import math
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
+from typing import Literal
+
+import pybullet
+
+from robocog.server.world import truth
+from robocog.server.world.sim import Grasp, Sim
+from robocog.shared.results import ObjectPlacement
+
+Vec3 = tuple[float, float, float]
+
+#: Called with (done, total, message) while a long action runs.
+ProgressFn = Callable[[float, float, str], None]
+
+
+@dataclass(frozen=True)
+class Reach:
+    """How a pick or put-down motion ended.
+
+    `failure`: "unreachable" (inverse kinematics cannot bring the hand there; nothing moved),
+    "missed" (the hand stopped short of the object; the arm went back to rest) or
+    "landed_elsewhere" (the object was let go but did not come to rest on the position).
+    """
+
+    ok: bool
+    failure: Literal["unreachable", "missed", "landed_elsewhere"] | None = None
+    gap_m: float = 0.0  # the IK error for "unreachable", the hand's gap to the object for "missed"
+    placement: ObjectPlacement | None = None  # put_down: where the object came to rest
+
+
+# --- base ----------------------------------------------------------------------------------------
+
+
+def drive(sim: Sim, path: list[str], progress: ProgressFn | None = None) -> float:
+    """Drive the base along `path` (location names), one segment after another; the metres driven."""
+    robot = sim.robot
+    step_len = sim.robot_spec.base_speed * sim.scene.physics.time_step
+    driven = 0.0
+    for i, (a, b) in enumerate(itertools.pairwise(path)):
+        (ax, ay), (bx, by) = sim.map.points[a], sim.map.points[b]
+        n = max(1, math.ceil(math.hypot(bx - ax, by - ay) / step_len))
+        for k in range(1, n + 1):
+            robot.set_base(ax + (bx - ax) * k / n, ay + (by - ay) * k / n, robot.yaw)
+            sim.step()
+        driven += math.hypot(bx - ax, by - ay)
+        if progress is not None:
+            progress(i + 1, len(path) - 1, f"reached {b}")
+    return driven
+
+
+# --- arm -----------------------------------------------------------------------------------------
+
+
+def follow(sim: Sim, trajectory: Iterable[tuple[list[float], list[float]]]) -> None:
+    for q, dq in trajectory:
+        sim.robot.set_joints(q, dq)
+        sim.step()
+
+
+def move_arm(sim: Sim, q: list[float]) -> None:
+    follow(sim, sim.robot.joint_trajectory(q, sim.scene.physics.time_step))
+
+
+def move_hand_straight(sim: Sim, start: Vec3, end: Vec3) -> None:
+    """Move the hand along a straight line (IK at a few waypoints, joint interpolation between)."""
+    n = max(1, math.ceil(math.dist(start, end) / 0.1))
+    for i in range(1, n + 1):
+        waypoint = tuple(a + (b - a) * i / n for a, b in zip(start, end, strict=True))
+        q, _ = sim.robot.solve_ik(waypoint)  # type: ignore[arg-type]
+        move_arm(sim, q)
+
+
+def approach_point(sim: Sim, target: Vec3) -> Vec3:
+    """A point in line between the base and `target`, just outside the base, slightly higher."""
+    robot = sim.robot
+    dx, dy = target[0] - robot.x, target[1] - robot.y
+    dist = math.hypot(dx, dy)
+    keep = min(dist, max(sim.robot_spec.base_size[:2]) * 0.5 + 0.1)
+    return (robot.x + dx / dist * keep, robot.y + dy / dist * keep, target[2] + 0.03)
+
+
+# --- grasping ------------------------------------------------------------------------------------
+
+
+def attach(sim: Sim, name: str) -> None:
+    """Fix the object `name` to the hand where it is now."""
+    c, robot, body = sim.client, sim.robot, sim.objects[name].body
+    sim.wake(body)
+    hand_pos, hand_orn = robot.end_effector_pose()
+    obj_pos, obj_orn = c.getBasePositionAndOrientation(body)
+    inv_pos, inv_orn = c.invertTransform(hand_pos, hand_orn)
+    rel_pos, rel_orn = c.multiplyTransforms(inv_pos, inv_orn, obj_pos, obj_orn)
+    constraint = c.createConstraint(
+        robot.arm,
+        robot.ee,
+        body,
+        -1,
+        pybullet.JOINT_FIXED,
+        [0, 0, 0],
+        parentFramePosition=rel_pos,
+        childFramePosition=[0, 0, 0],
+        parentFrameOrientation=rel_orn,
+    )
+    c.changeConstraint(constraint, maxForce=500)
+    sim.grasp = Grasp(name, constraint)
+
+
+def release(sim: Sim) -> None:
+    """Let go of the held object (if any)."""
+    if sim.grasp is None:
+        return
+    constraint = sim.grasp.constraint
+    sim.grasp = None
+    with contextlib.suppress(pybullet.error):
+        sim.client.removeConstraint(constraint)
+
+
+def pick(sim: Sim, name: str) -> Reach:
+    """Reach for the object `name` from where the robot stands, attach it and lift it to the carry pose."""
+    c, robot, spec = sim.client, sim.robot, sim.robot_spec
+    body = sim.objects[name].body
+    (x, y, _), _ = c.getBasePositionAndOrientation(body)
+    grasp_point = (x, y, c.getAABB(body)[1][2] + spec.grasp_clearance)
+    _, err = robot.solve_ik(grasp_point)
+    if err > spec.grasp_threshold:
+        return Reach(ok=False, failure="unreachable", gap_m=err)
+    approach = approach_point(sim, grasp_point)
+    lifted = (grasp_point[0], grasp_point[1], grasp_point[2] + 0.03)
+    move_arm(sim, robot.solve_ik(approach)[0])
+    move_hand_straight(sim, approach, lifted)
+    move_hand_straight(sim, lifted, grasp_point)
+    hand = robot.end_effector()
+    (x, y, _), _ = c.getBasePositionAndOrientation(body)
+    top = (x, y, c.getAABB(body)[1][2])
+    gap = math.dist(hand, top)
+    if gap > spec.grasp_threshold + spec.grasp_clearance:
+        move_arm(sim, list(spec.arm.rest_pose))
+        return Reach(ok=False, failure="missed", gap_m=gap)
+    attach(sim, name)
+    move_hand_straight(sim, grasp_point, lifted)
+    move_hand_straight(sim, lifted, approach)
+    move_arm(sim, list(spec.arm.carry_pose))
+    return Reach(ok=True)
+
+
+def put_down(sim: Sim, location: str, position: str) -> Reach:
+    """Lower the held object onto the place position, let it go upright, and see where it comes to rest."""
+    assert sim.grasp is not None, "put_down needs an object in the hand"
+    c, robot, spec = sim.client, sim.robot, sim.robot_spec
+    held = sim.grasp.name
+    obj, pos = sim.objects[held], sim.positions[(location, position)]
+    (ox, oy, oz), _ = c.getBasePositionAndOrientation(obj.body)
+    hand = robot.end_effector()
+    drop_z = pos.surface_z + obj.bottom + spec.place_clearance
+    cx, cy = pos.spec.center
+    target_hand = (cx + hand[0] - ox, cy + hand[1] - oy, drop_z + hand[2] - oz)
+    _, err = robot.solve_ik(target_hand)
+    if err > spec.grasp_threshold:
+        return Reach(ok=False, failure="unreachable", gap_m=err)
+    approach = approach_point(sim, target_hand)
+    move_arm(sim, robot.solve_ik(approach)[0])
+    move_hand_straight(sim, approach, target_hand)
+    yaw = c.getEulerFromQuaternion(c.getBasePositionAndOrientation(obj.body)[1])[2]
+    release(sim)
+    # The hand has no fingers: the object is let go upright just above the surface.
+    sim.put_on(obj, pos, yaw, xy=(cx, cy))
+    move_hand_straight(sim, target_hand, approach)
+    move_arm(sim, list(spec.arm.rest_pose))
+    sim.settle([obj.body])
+    where = truth.placement(sim, held)
+    if where.state == "on_position" and (where.location, where.position) == (location, position):
+        return Reach(ok=True, placement=where)
+    return Reach(ok=False, failure="landed_elsewhere", placement=where)

@@ -1,0 +1,112 @@
+"""The simulation handle: one PyBullet client's bodies, robot and grasp, and the primitives every part needs.
+
+A `Sim` is what the builder makes and what ground truth and the actions work on; it knows nothing
+of either, so the world's parts depend one way: actions -> ground truth -> Sim, and
+episode -> builder -> Sim.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+
+import pybullet
+from pybullet_utils.bullet_client import BulletClient
+
+from robocog.server.world.navigation import SemanticMap
+from robocog.server.world.robot import Robot
+from robocog.shared.scene import PlacePosition, RobotSpec, Scene, SceneObject
+
+
+@dataclass(frozen=True)
+class Position:
+    """A place position with its support body and surface height resolved."""
+
+    spec: PlacePosition
+    support_body: int
+    surface_z: float
+
+    @property
+    def key(self) -> tuple[str, str]:
+        return self.spec.location, self.spec.name
+
+    def contains_xy(self, x: float, y: float) -> bool:
+        (cx, cy), (sx, sy) = self.spec.center, self.spec.size
+        return abs(x - cx) <= sx / 2 and abs(y - cy) <= sy / 2
+
+
+@dataclass
+class Body:
+    """A scene object's PyBullet body and its extent from the body origin."""
+
+    spec: SceneObject
+    body: int
+    bottom: float  # distance from the body origin down to its lowest point, upright
+    top: float  # distance from the body origin up to its highest point, upright
+
+
+@dataclass(frozen=True)
+class Grasp:
+    """The object in the hand and the constraint that holds it there."""
+
+    name: str
+    constraint: int
+
+
+@dataclass(eq=False)
+class Sim:
+    """One built scene in one PyBullet client: its bodies, the robot, what the hand holds, the step count."""
+
+    client: BulletClient
+    scene: Scene
+    robot_spec: RobotSpec
+    map: SemanticMap
+    floor: int
+    static_bodies: list[int]
+    parts: dict[str, int]  # "furniture/part" (and "floor") -> body
+    positions: dict[tuple[str, str], Position]  # (location, position) -> Position, in scene order
+    objects: dict[str, Body]  # name -> Body, in scene order
+    robot: Robot
+    grasp: Grasp | None = None
+    steps: int = 0
+    _step_simulation: Callable[[], None] = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        # Bound once: BulletClient's attribute lookup costs more than a step's bookkeeping.
+        self._step_simulation = functools.partial(pybullet.stepSimulation, physicsClientId=self.client._client)
+
+    def step(self) -> None:
+        self._step_simulation()
+        self.steps += 1
+
+    def speed(self, body: int) -> float:
+        lin, _ = self.client.getBaseVelocity(body)
+        return math.sqrt(lin[0] ** 2 + lin[1] ** 2 + lin[2] ** 2)
+
+    def settle(self, bodies: Iterable[int] | None = None) -> None:
+        """Step until the given (default: all loose) objects rest, or the settle budget runs out."""
+        held = self.grasp.name if self.grasp else None
+        watch = list(bodies) if bodies is not None else [o.body for n, o in self.objects.items() if n != held]
+        phys = self.scene.physics
+        for i in range(phys.settle_steps):
+            self.step()
+            if i >= 3 and all(self.speed(b) < phys.rest_speed for b in watch):
+                break
+
+    def wake(self, body: int) -> None:
+        self.client.changeDynamics(body, -1, activationState=pybullet.ACTIVATION_STATE_WAKE_UP)
+
+    def put(self, obj: Body, x: float, y: float, z: float, yaw: float) -> None:
+        """Teleport an object to (x, y, z) with `yaw`, at rest and awake."""
+        self.client.resetBasePositionAndOrientation(
+            obj.body, [x, y, z], self.client.getQuaternionFromEuler([0, 0, yaw])
+        )
+        self.client.resetBaseVelocity(obj.body, [0, 0, 0], [0, 0, 0])
+        self.wake(obj.body)
+
+    def put_on(self, obj: Body, pos: Position, yaw: float, xy: tuple[float, float] | None = None) -> None:
+        """Stand an object upright just above a place position (at its centre unless `xy` is given)."""
+        x, y = xy if xy is not None else pos.spec.center
+        self.put(obj, x, y, pos.surface_z + obj.bottom + 0.001, yaw)

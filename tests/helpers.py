@@ -1,0 +1,125 @@
+"""What several test modules share: the tool names, the paper's map and tasks, snapshot checking.
+
+Test modules import from here, never from one another nor from the code under test, so that the
+expectations stay written down once and independent of the code they check.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import Any
+
+SNAPSHOTS = Path(__file__).parent / "snapshots"
+
+#: The tools a model is offered, in every profile.
+ROBOT_TOOLS = frozenset(
+    {
+        "look_around",
+        "move_to",
+        "grab",
+        "place",
+        "add_to_scratchpad",
+        "view_scratchpad",
+        "end_task",
+        "search_memory",
+    }
+)
+
+#: The eval profile's controls for harnesses; never offered to a model.
+CONTROL_TOOLS = frozenset({"reset_world", "check_task", "clear_memory"})
+
+# --- the paper's semantic map (BRIEF.md, "The world") --------------------------------------------
+
+PAPER_EDGES = [
+    ("Hallway Area Door", "Front Door"),
+    ("Hallway Area Door", "Kitchen Door"),
+    ("Hallway Area Door", "Living Room Door"),
+    ("Kitchen Area Left", "Kitchen Door"),
+    ("Kitchen Area Left", "Kitchen Shelf"),
+    ("Kitchen Area Left", "Kitchen Table"),
+    ("Living Room", "Living Room Door"),
+    ("Living Room", "Living Room TV"),
+]
+PAPER_LOCATIONS = {
+    "Front Door": (0.0, 0.0),
+    "Hallway Area Door": (3.0, 0.0),
+    "Kitchen Door": (3.0, 2.0),
+    "Living Room Door": (3.0, -2.0),
+    "Living Room": (4.0, -4.0),
+    "Living Room TV": (8.0, -4.5),
+    "Kitchen Area Left": (3.0, 4.0),
+    "Kitchen Shelf": (1.0, 4.85),
+    "Kitchen Table": (6.0, 5.0),
+}
+#: The place positions of each location that has any.
+PAPER_POSITIONS = {
+    "Kitchen Shelf": {"top", "middle", "bottom"},
+    "Kitchen Table": {"middle"},
+    "Front Door": {"floor"},
+    "Hallway Area Door": {"floor"},
+    "Living Room": {"floor"},
+    "Kitchen Area Left": {"floor"},
+}
+
+# --- the paper's tasks ---------------------------------------------------------------------------
+
+T1 = "Put away all the items into the shelf."
+T2 = "Swap the mug and the cube in the shelf."
+
+#: A robot action as (tool name, *arguments in the order of `action_args`).
+Action = tuple[str, ...]
+
+#: T1: look, then cube to the top layer, box to the middle, mug to the bottom (12 actions).
+T1_SEQUENCE: tuple[Action, ...] = (
+    ("look_around",),
+    ("grab", "cube"),
+    ("move_to", "Kitchen Shelf"),
+    ("place", "Kitchen Shelf", "top"),
+    ("move_to", "Living Room"),
+    ("grab", "box"),
+    ("move_to", "Kitchen Shelf"),
+    ("place", "Kitchen Shelf", "middle"),
+    ("move_to", "Kitchen Table"),
+    ("grab", "mug"),
+    ("move_to", "Kitchen Shelf"),
+    ("place", "Kitchen Shelf", "bottom"),
+)
+
+#: T2 after T1: park the cube on the kitchen floor, move the mug up, bring the cube down.
+T2_SEQUENCE: tuple[Action, ...] = (
+    ("grab", "cube"),
+    ("move_to", "Kitchen Area Left"),
+    ("place", "Kitchen Area Left", "floor"),
+    ("move_to", "Kitchen Shelf"),
+    ("grab", "mug"),
+    ("place", "Kitchen Shelf", "top"),
+    ("move_to", "Kitchen Area Left"),
+    ("grab", "cube"),
+    ("move_to", "Kitchen Shelf"),
+    ("place", "Kitchen Shelf", "bottom"),
+)
+
+
+def action_args(action: tuple[str, ...]) -> dict[str, Any]:
+    """The MCP arguments of a (name, *args) world action (typed `Any`, as `**kwargs` of a tool call)."""
+    name, *args = action
+    keys = {"look_around": [], "move_to": ["location"], "grab": ["object"], "place": ["location", "position"]}[name]
+    return dict(zip(keys, args, strict=True))
+
+
+# --- snapshots -----------------------------------------------------------------------------------
+
+
+def check_snapshot(name: str, value: dict[str, Any]) -> None:
+    """`value` equals tests/snapshots/NAME.json; ROBOCOG_UPDATE_SNAPSHOTS=1 rewrites the file first."""
+    path = SNAPSHOTS / f"{name}.json"
+    text = json.dumps(value, indent=2, sort_keys=True) + "\n"
+    if os.environ.get("ROBOCOG_UPDATE_SNAPSHOTS") == "1":
+        path.parent.mkdir(exist_ok=True)
+        path.write_text(text, encoding="utf-8")
+    assert path.exists(), f"no snapshot {path}; run with ROBOCOG_UPDATE_SNAPSHOTS=1 to create it"
+    assert json.loads(text) == json.loads(path.read_text(encoding="utf-8")), (
+        f"the MCP contract changed; if deliberate, update {path} with ROBOCOG_UPDATE_SNAPSHOTS=1"
+    )
