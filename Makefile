@@ -8,15 +8,28 @@ export LITELLM_LOCAL_MODEL_COST_MAP := True
 export ANONYMIZED_TELEMETRY := False
 export PYTHONDONTWRITEBYTECODE := 1
 
-.PHONY: help demo world-demo test bench lint format server inspector clean
+.PHONY: help demo world-demo test bench lint format server inspector clean FORCE
 
 help: ## Show this help
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-10s %s\n", $$1, $$2}'
 
-$(STAMP): pyproject.toml
+# A strict editable install: build/__editable__.* holds a link per file of the packages, laid out as
+# `robocog/...`, which type checkers can read (they cannot follow setuptools' default editable finder
+# through our package-dir mapping). A file added or removed needs installing again, so the install
+# also depends on the list of the packages' files, which is rewritten only when it changes.
+FILES := $(VENV)/.package-files
+
+$(FILES): FORCE
+	@mkdir -p $(VENV)
+	@find shared server agent assets -name __pycache__ -prune -o -type f \
+		\( -name '*.py' -o -name '*.yaml' -o -name '*.txt' -o -name '*.md' -o -name py.typed \) -print \
+		| LC_ALL=C sort > $@.new
+	@if cmp -s $@.new $@; then rm $@.new; else mv $@.new $@; fi
+
+$(STAMP): pyproject.toml $(FILES)
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e ".[dev]"
+	$(BIN)/python -m pip install --quiet -e ".[dev]" --config-settings editable_mode=strict
 	@touch $(STAMP)
 
 demo: $(STAMP) ## The scripted planner does T1 then T2 through MCP; prints the trace and the ground truth
@@ -33,9 +46,10 @@ test: $(STAMP) ## Run the test suite (offline; no API key needed)
 bench: $(STAMP) ## Print the performance figures as JSON
 	$(BIN)/python tests/bench/run.py
 
-lint: $(STAMP) ## ruff check + format check
+lint: $(STAMP) ## ruff check + format check, then mypy (shared strict; server, agent, tests)
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
+	$(BIN)/mypy -p robocog.shared -p robocog.server -p robocog.agent -p tests
 
 format: $(STAMP) ## Format the code with ruff
 	$(BIN)/ruff check --fix .
@@ -48,4 +62,4 @@ inspector: $(STAMP) ## Open the MCP Inspector on the stdio server (needs Node.js
 	npx @modelcontextprotocol/inspector $(abspath $(BIN))/robocog-server
 
 clean: ## Remove the virtualenv and caches
-	rm -rf $(VENV) .pytest_cache .ruff_cache
+	rm -rf $(VENV) build .pytest_cache .ruff_cache .mypy_cache

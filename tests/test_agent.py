@@ -9,7 +9,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
-from collections.abc import AsyncIterator
+from collections.abc import AsyncIterator, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -26,12 +26,9 @@ from robocog.server.app import build_server
 from robocog.server.config import SessionConfig
 from robocog.shared.errors import ModelServiceError
 from robocog.shared.trace import ModelTurn, ToolResult, TraceEvent, read_trace
-from tests.test_server import ROBOT_TOOLS, check_snapshot
+from tests.helpers import ROBOT_TOOLS, T1, T2, check_snapshot
 
 pytestmark = pytest.mark.anyio
-
-T1 = "Put away all the items into the shelf."
-T2 = "Swap the mug and the cube in the shelf."
 
 
 @pytest.fixture
@@ -135,7 +132,7 @@ class CannedTurns(CustomLLM):
             raise turn
         return _response(model, turn, 0)
 
-    async def acompletion(self, model: str, messages: list, *args: Any, **kwargs: Any) -> ModelResponse:  # type: ignore[override]
+    async def acompletion(self, model: str, messages: list, *args: Any, **kwargs: Any) -> ModelResponse:
         return self.completion(model, messages)
 
 
@@ -148,7 +145,7 @@ def tool_turn(name: str, arguments: str, call_id: str) -> dict[str, Any]:
 
 
 @pytest.fixture
-def canned() -> AsyncIterator[Any]:
+def canned() -> Iterator[Any]:
     providers: list[dict[str, Any]] = []
 
     def install(turns: list[Any]) -> CannedTurns:

@@ -17,8 +17,7 @@ import pytest
 from mcp import Client
 from mcp.client.stdio import StdioServerParameters, stdio_client
 
-from robocog.server.world.demo import T1_SEQUENCE, T2_SEQUENCE
-from tests.test_server import action_args
+from tests.helpers import T1, T1_SEQUENCE, T2, T2_SEQUENCE, action_args
 
 pytestmark = pytest.mark.anyio
 
@@ -38,8 +37,8 @@ def stdio_params(*args: str) -> Any:
 
 async def run_t1_then_t2(client: Client) -> None:
     for task_id, sequence, prompt in (
-        ("T1", T1_SEQUENCE, "Put away all the items into the shelf."),
-        ("T2", T2_SEQUENCE, "Swap the mug and the cube in the shelf."),
+        ("T1", T1_SEQUENCE, T1),
+        ("T2", T2_SEQUENCE, T2),
     ):
         before = await client.call_tool("check_task", {"task_id": task_id})
         assert before.structured_content is not None and before.structured_content["success"] is False
@@ -105,16 +104,14 @@ async def test_t1_then_t2_over_http(http_server: str) -> None:
 async def test_memory_persists_across_a_restart_and_namespaces_stay_apart(tmp_path: Path) -> None:
     data = str(tmp_path / "memory")
     async with Client(stdio_params("--data-dir", data, "--memory-namespace", "trial-1")) as client:
-        await client.call_tool(
-            "end_task", {"status": "success", "description": "Put away all the items into the shelf.", "summary": "ok"}
-        )
+        await client.call_tool("end_task", {"status": "success", "description": T1, "summary": "ok"})
         await client.call_tool("end_task", {"status": "failure", "description": "Open the window.", "summary": "no"})
     async with Client(stdio_params("--data-dir", data, "--memory-namespace", "trial-1")) as client:
         found = await client.call_tool("search_memory", {"query": "put the items away on the shelf"})
         assert found.structured_content is not None
         results = found.structured_content["results"]
         assert len(results) == 2
-        assert results[0]["task_description"] == "Put away all the items into the shelf."
+        assert results[0]["task_description"] == T1
     async with Client(stdio_params("--data-dir", data, "--memory-namespace", "trial-2")) as client:
         found = await client.call_tool("search_memory", {"query": "put the items away on the shelf"})
         assert found.structured_content is not None and found.structured_content["results"] == []
