@@ -8,29 +8,24 @@ export LITELLM_LOCAL_MODEL_COST_MAP := True
 export ANONYMIZED_TELEMETRY := False
 export PYTHONDONTWRITEBYTECODE := 1
 
-.PHONY: help demo world-demo test bench lint format server inspector clean FORCE
+.PHONY: help demo world-demo test bench lint format server inspector clean
 
 help: ## Show this help
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-10s %s\n", $$1, $$2}'
 
-# A strict editable install: build/__editable__.* holds a link per file of the packages, laid out as
-# `robocog/...`, which type checkers can read (they cannot follow setuptools' default editable finder
-# through our package-dir mapping). A file added or removed needs installing again, so the install
-# also depends on the list of the packages' files, which is rewritten only when it changes.
-FILES := $(VENV)/.package-files
-
-$(FILES): FORCE
-	@mkdir -p $(VENV)
-	@find shared server agent assets -name __pycache__ -prune -o -type f \
-		\( -name '*.py' -o -name '*.yaml' -o -name '*.txt' -o -name '*.md' -o -name py.typed \) -print \
-		| LC_ALL=C sort > $@.new
-	@if cmp -s $@.new $@; then rm $@.new; else mv $@.new $@; fi
-
-$(STAMP): pyproject.toml $(FILES)
+$(STAMP): pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e ".[dev]" --config-settings editable_mode=strict
+	$(BIN)/python -m pip install --quiet -e ".[dev]"
 	@touch $(STAMP)
+
+# Type checkers cannot follow setuptools' editable finder through our package-dir mapping, so mypy
+# reads the packages through a tree of directory links laid out as `robocog/...` (new files appear
+# in it at once; pyproject.toml points mypy_path at it).
+TYPES := build/typecheck/robocog
+$(TYPES):
+	@mkdir -p $(TYPES)
+	@for d in shared server agent assets; do ln -sfn ../../../$$d $(TYPES)/$$d; done
 
 demo: $(STAMP) ## The scripted planner does T1 then T2 through MCP; prints the trace and the ground truth
 	@rm -rf .demo-memory
@@ -46,7 +41,7 @@ test: $(STAMP) ## Run the test suite (offline; no API key needed)
 bench: $(STAMP) ## Print the performance figures as JSON
 	$(BIN)/python tests/bench/run.py
 
-lint: $(STAMP) ## ruff check + format check, then mypy (shared strict; server, agent, tests)
+lint: $(STAMP) $(TYPES) ## ruff check + format check, then mypy (shared strict; server, agent, tests)
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
 	$(BIN)/mypy -p robocog.shared -p robocog.server -p robocog.agent -p tests

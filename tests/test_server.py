@@ -152,7 +152,7 @@ async def test_place_on_an_occupied_position_names_the_free_ones(robot: Client) 
 
 
 async def test_bad_arguments_get_a_readable_error_and_the_server_keeps_running(robot: Client) -> None:
-    for tool, arguments in [
+    attacks: list[tuple[str, dict[str, Any]]] = [
         ("move_to", {}),
         ("move_to", {"location": 5}),
         ("move_to", {"location": ""}),
@@ -161,7 +161,8 @@ async def test_bad_arguments_get_a_readable_error_and_the_server_keeps_running(r
         ("end_task", {"status": "done", "description": "x", "summary": "y"}),
         ("search_memory", {"query": "x", "k": 0}),
         ("no_such_tool", {}),
-    ]:
+    ]
+    for tool, arguments in attacks:
         result = await robot.call_tool(tool, arguments)
         assert result.is_error, (tool, arguments)
         assert result.content[0].text  # type: ignore[union-attr]

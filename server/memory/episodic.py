@@ -26,7 +26,8 @@ from chromadb.config import Settings
 
 from robocog.server.memory.embedding import MiniLMEmbeddingFunction
 from robocog.server.memory.names import collection_name, default_data_dir, parse_chroma_url
-from robocog.shared.memory import MemoryHit, MemoryRecord, Status
+from robocog.shared.memory import MemoryHit, MemoryRecord
+from robocog.shared.results import Status
 
 #: Distances closer than this count as a tie (broken newest first).
 TIE_EPSILON = 1e-6
@@ -113,7 +114,7 @@ class EpisodicMemory:
         self._collection: Collection = self._client.get_or_create_collection(
             name,
             configuration={"hnsw": {"space": "cosine"}},
-            embedding_function=self._ef,
+            embedding_function=cast(Any, self._ef),  # Chroma's annotation is narrower than its protocol
         )
 
     # -- writing ------------------------------------------------------------------------------
