@@ -10,7 +10,11 @@ import sys
 import threading
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # only for the annotations: the CLI starts without importing LiteLLM
+    from robocog.agent.connection import ServerSpec
+    from robocog.agent.loop import AgentSettings
 
 DEFAULT_MODEL = "scripted/planner"
 
@@ -110,7 +114,7 @@ def _params(items: list[str]) -> dict[str, Any]:
     return out
 
 
-def _settings(args: argparse.Namespace) -> Any:
+def _settings(args: argparse.Namespace) -> AgentSettings:
     """The model options of `run`, `chat` and `bench` as the loop's settings."""
     from robocog.agent.loop import AgentSettings
 
@@ -126,7 +130,8 @@ def _settings(args: argparse.Namespace) -> Any:
     )
 
 
-def _server_spec(args: argparse.Namespace) -> Any:
+def _server_spec(args: argparse.Namespace) -> ServerSpec:
+    """How to reach the server for `run`, `chat` and `bench`: a URL, else a spawned eval-profile server."""
     from robocog.agent.connection import ServerSpec
 
     extra = ["--profile", "eval"]  # the client checks ground truth; the model never sees those tools
@@ -151,7 +156,8 @@ def _preload_litellm() -> threading.Thread:
     return thread
 
 
-async def _run_tasks(args: argparse.Namespace, tasks: Sequence[str] | None, loader: threading.Thread) -> int:
+async def _run_tasks(args: argparse.Namespace, tasks: Sequence[str] | None, loader: threading.Thread | None) -> int:
+    """Run `tasks` in order (or, when None, the tasks typed at the prompt) in one world."""
     from robocog.agent.connection import connect
     from robocog.agent.loop import check_credentials, finish, run_episode
     from robocog.agent.trace import Trace, make_console
@@ -162,7 +168,8 @@ async def _run_tasks(args: argparse.Namespace, tasks: Sequence[str] | None, load
     console = make_console()
     ok = True
     async with connect(_server_spec(args)) as robot:
-        await asyncio.to_thread(loader.join)
+        if loader is not None:
+            await asyncio.to_thread(loader.join)
         try:
             check_credentials(settings.model, settings.api_base)
         except ModelServiceError as exc:
@@ -170,14 +177,13 @@ async def _run_tasks(args: argparse.Namespace, tasks: Sequence[str] | None, load
             return 2
         pending = list(tasks) if tasks is not None else None
         while True:
+            task: str | None
             if pending is not None:
-                if not pending:
-                    break
-                task = pending.pop(0)
+                task = pending.pop(0) if pending else None
             else:
                 task = await asyncio.to_thread(_ask)
-                if task is None:
-                    break
+            if task is None:
+                break
             prompt = robot.tasks.get(task, task)
             trace = Trace(args.trace, console=None if args.quiet else console)
             result = await run_episode(
@@ -228,13 +234,13 @@ def _eval(args: argparse.Namespace) -> int:
     from rich.progress import (
         BarColumn,
         MofNCompleteColumn,
-        Progress,
         TextColumn,
         TimeElapsedColumn,
         TimeRemainingColumn,
     )
+    from rich.progress import Progress as ProgressBar
 
-    from robocog.agent.evaluation import run_eval, summary_line
+    from robocog.agent.evaluation import Progress, run_eval, summary_line
     from robocog.shared.errors import ConfigError, ServerConnectionError
     from robocog.shared.evaluation import load_config
 
@@ -253,7 +259,7 @@ def _eval(args: argparse.Namespace) -> int:
         print("robocog: no results file: give --out or set `out` in the config", file=sys.stderr)
         return 2
     server = shlex.split(args.server_cmd) if args.server_cmd else None
-    with Progress(
+    with ProgressBar(
         TextColumn("[bold]{task.description}"),
         BarColumn(),
         MofNCompleteColumn(),
@@ -264,11 +270,9 @@ def _eval(args: argparse.Namespace) -> int:
     ) as bar:
         task = bar.add_task(config.name, total=None, rate="")
 
-        def show(p: object) -> None:
-            done, total = getattr(p, "done", 0), getattr(p, "total", 0)
-            wins, attempts = getattr(p, "successes", 0), getattr(p, "attempts", 0)
-            rate = f"success {wins}/{attempts} ({wins / attempts:.0%})" if attempts else ""
-            bar.update(task, completed=done, total=total, rate=rate)
+        def show(p: Progress) -> None:
+            rate = f"success {p.successes}/{p.attempts} ({p.successes / p.attempts:.0%})" if p.attempts else ""
+            bar.update(task, completed=p.done, total=p.total, rate=rate)
 
         try:
             rows = asyncio.run(
@@ -321,10 +325,10 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     try:
         if args.command == "run":
-            return asyncio.run(_run_tasks(args, args.tasks, loader))  # type: ignore[arg-type]
+            return asyncio.run(_run_tasks(args, args.tasks, loader))
         if args.command == "chat":
             print("Type a task (or a task id such as T1); an empty line or /quit ends the session.")
-            return asyncio.run(_run_tasks(args, None, loader))  # type: ignore[arg-type]
+            return asyncio.run(_run_tasks(args, None, loader))
         if args.command == "eval":
             return _eval(args)
         if args.command == "report":

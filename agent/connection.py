@@ -15,7 +15,7 @@ from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, Any, TextIO, cast
 
 from mcp import Client
 from mcp.client.stdio import StdioServerParameters
@@ -62,6 +62,7 @@ class Robot:
     system_prompt: str
     tasks: dict[str, str]  # task id -> prompt (from robocog://tasks)
     label: str
+    requires: dict[str, list[str]] = field(default_factory=dict)  # task id -> tasks that must succeed first
 
     @property
     def can_check(self) -> bool:
@@ -100,7 +101,7 @@ async def connect(spec: ServerSpec) -> AsyncIterator[Robot]:
         command, *args = spec.command
         params = StdioServerParameters(command=command, args=[*args, *spec.extra_args], env=env)
         log = tempfile.NamedTemporaryFile("w+", prefix="robocog-server-", suffix=".log", delete=False)  # noqa: SIM115
-        target = stdio_client(params, errlog=log)
+        target = stdio_client(params, errlog=cast(TextIO, log))  # a text file, in a wrapper that deletes it
     try:
         async with _session(target, spec) as robot:
             yield robot
@@ -126,10 +127,14 @@ async def _session(target: Any, spec: ServerSpec) -> AsyncIterator[Robot]:
         prompt = await client.get_prompt("robot_system")
         system_prompt = "\n".join(getattr(m.content, "text", "") for m in prompt.messages)
         tasks: dict[str, str] = {}
+        requires: dict[str, list[str]] = {}
         try:
             catalogue = await client.read_resource("robocog://tasks")
             for item in json.loads(getattr(catalogue.contents[0], "text", "[]")):
                 tasks[item["id"]] = item["prompt"]
+                requires[item["id"]] = [str(r) for r in item.get("requires") or []]
         except Exception:  # a server without the catalogue can still be driven
-            tasks = {}
-        yield Robot(client=client, tools=tools, system_prompt=system_prompt, tasks=tasks, label=spec.label)
+            tasks, requires = {}, {}
+        yield Robot(
+            client=client, tools=tools, system_prompt=system_prompt, tasks=tasks, label=spec.label, requires=requires
+        )

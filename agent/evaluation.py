@@ -2,8 +2,10 @@
 
 For each model and trial (a *unit*): memory iteration 0 starts with an empty memory and later
 iterations keep what earlier ones stored; each iteration resets the world and runs the tasks in
-order, each only if the one before truly succeeded (T2 after T1); a task never ended within the
-invocation limit is a refusal. Ground truth comes from the server's `check_task` after the attempt.
+order, each only if every task it `requires` (from the server's task catalogue) truly succeeded
+earlier in the same iteration (T2 after T1); a task without requirements always runs. A task
+never ended within the invocation limit is a refusal. Ground truth comes from the server's
+`check_task` after the attempt.
 
 Each worker owns one server process (eval profile) with its own data directory, and clears the
 memory between units, so trials never share memory except across the iterations of one trial.
@@ -17,7 +19,7 @@ import asyncio
 import hashlib
 import re
 import shutil
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -32,6 +34,7 @@ from robocog.shared.trace import Verdict
 
 
 def slug(text: str) -> str:
+    """`text` as a file name."""
     return re.sub(r"[^A-Za-z0-9._-]+", "_", text).strip("_") or "model"
 
 
@@ -41,7 +44,14 @@ def model_seed(seed: int, trial: int, iteration: int, task: str) -> int:
     return int.from_bytes(digest[:4], "big")
 
 
+#: The error of an attempt during which the server or the transport died.
+SERVER_FAILURE = "server failure"
+
+Requirements = Mapping[str, Sequence[str]]  # task id -> tasks that must have succeeded first
+
+
 def read_rows(path: Path) -> list[AttemptRow]:
+    """The attempts of a results file, in order (none when it does not exist)."""
     if not path.exists():
         return []
     rows = []
@@ -51,13 +61,32 @@ def read_rows(path: Path) -> list[AttemptRow]:
     return rows
 
 
-def unit_complete(rows: list[AttemptRow], config: EvalConfig) -> bool:
-    """A unit is complete when its last memory iteration's chain of tasks has closed."""
-    last = [r for r in rows if r.memory_iteration == config.memory_iterations - 1]
-    if not last:
-        return False
-    final = last[-1]
-    return final.task == config.tasks[-1] or not final.true_success
+def runnable(task_id: str, succeeded: set[str], requires: Requirements) -> bool:
+    """Whether every task `task_id` requires has truly succeeded (earlier in the same iteration)."""
+    return all(r in succeeded for r in requires.get(task_id, ()))
+
+
+def broke_off(row: AttemptRow) -> bool:
+    """Whether the server died during the attempt (the rest of its iteration was not run)."""
+    return (row.error or "").startswith(SERVER_FAILURE)
+
+
+def unit_complete(rows: list[AttemptRow], config: EvalConfig, requires: Requirements) -> bool:
+    """A unit is complete when its last memory iteration has closed: every task ran, or was skipped
+    because a task it requires failed, or the server died (the iteration ends there)."""
+    last = iter([r for r in rows if r.memory_iteration == config.memory_iterations - 1])  # in run order
+    succeeded: set[str] = set()
+    for task_id in config.tasks:
+        if not runnable(task_id, succeeded, requires):
+            continue
+        row = next(last, None)
+        if row is None or row.task != task_id:  # not run yet (or not by these rules: run it again)
+            return False
+        if broke_off(row):
+            return True
+        if row.true_success:
+            succeeded.add(task_id)
+    return True
 
 
 @dataclass
@@ -118,7 +147,11 @@ class Runner:
             await robot.client.call_tool("clear_memory", {})
         for iteration in range(start_iteration, cfg.memory_iterations):
             await _control(robot, "reset_world", seed=seed, randomize=cfg.randomize, memory_labels=cfg.memory_labels)
+            succeeded: set[str] = set()
             for index, task_id in enumerate(cfg.tasks):
+                if not runnable(task_id, succeeded, robot.requires):
+                    self.progress.advance()  # skipped: a task it requires failed (no row)
+                    continue
                 try:
                     row = await self.attempt(robot, spec, trial, iteration, task_id)
                 except ServerBroke as broke:
@@ -126,10 +159,14 @@ class Runner:
                     self.progress.advance(len(cfg.tasks) - index - 1)
                     return iteration + 1
                 await self.write(row)
-                if not row.true_success:
-                    self.progress.advance(len(cfg.tasks) - index - 1)
-                    break
+                if row.true_success:
+                    succeeded.add(task_id)
         return None
+
+    async def requirements(self) -> dict[str, list[str]]:
+        """The tasks' requirements, from the catalogue of a server like the workers'."""
+        async with connect(self.spec(0)) as robot:
+            return robot.requires
 
     async def attempt(self, robot: Robot, spec: ModelSpec, trial: int, iteration: int, task_id: str) -> AttemptRow:
         cfg = self.config
@@ -181,7 +218,7 @@ class Runner:
                     cost=None,
                     llm_latency_s=0.0,
                     wall_s=0.0,
-                    error=f"server failure: {leaf_message(exc)}",
+                    error=f"{SERVER_FAILURE}: {leaf_message(exc)}",
                 )
             ) from exc
         verdict = Verdict(t=trace.now(), task_id=task_id, success=bool(checked["success"]), reason=checked["reason"])
@@ -238,15 +275,15 @@ async def _control(robot: Robot, tool: str, **arguments: Any) -> dict[str, Any]:
     return result.structured_content
 
 
-def plan_units(config: EvalConfig, out: Path, resume: bool) -> list[tuple[ModelSpec, int, int]]:
-    """The units still to run; with `resume`, drops the rows of units that were cut off."""
-    rows = read_rows(out)
-    if rows and not resume:
-        raise ConfigError(f"{out} already holds {len(rows)} results: use --resume to continue, or another --out")
+def plan_units(
+    config: EvalConfig, out: Path, rows: list[AttemptRow], requires: Requirements
+) -> list[tuple[ModelSpec, int, int]]:
+    """The units still to run, given the `rows` already in `out`; drops the rows of units that were
+    cut off (rewriting `out`)."""
     by_unit: dict[tuple[str, int], list[AttemptRow]] = {}
     for row in rows:
         by_unit.setdefault(row.unit, []).append(row)
-    complete = {unit for unit, unit_rows in by_unit.items() if unit_complete(unit_rows, config)}
+    complete = {unit for unit, unit_rows in by_unit.items() if unit_complete(unit_rows, config, requires)}
     kept = [r for r in rows if r.unit in complete]
     if len(kept) != len(rows):
         tmp = out.with_suffix(out.suffix + ".tmp")
@@ -271,9 +308,14 @@ async def run_eval(
 ) -> list[AttemptRow]:
     """Run the study; returns every row of the results file."""
     out.parent.mkdir(parents=True, exist_ok=True)
-    pending = plan_units(config, out, resume)
+    rows = read_rows(out)
+    if rows and not resume:
+        raise ConfigError(f"{out} already holds {len(rows)} results: use --resume to continue, or another --out")
+    runner = Runner(config, out, server_command)
+    # Which units are complete depends on the tasks' requirements: only the server knows them.
+    pending = plan_units(config, out, rows, await runner.requirements() if rows else {})
     per_unit = config.memory_iterations * len(config.tasks)
-    runner = Runner(config, out, server_command, Progress(total=len(pending) * per_unit, on_change=on_progress))
+    runner.progress = Progress(total=len(pending) * per_unit, on_change=on_progress)
     queue: asyncio.Queue[tuple[ModelSpec, int, int]] = asyncio.Queue()
     for unit in pending:
         queue.put_nowait(unit)
@@ -289,6 +331,7 @@ async def run_eval(
 
 
 def summary_line(rows: list[AttemptRow]) -> str:
+    """True successes per model and task, on one line."""
     by: dict[tuple[str, str], list[AttemptRow]] = {}
     for r in rows:
         by.setdefault((r.model, r.task), []).append(r)

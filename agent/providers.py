@@ -21,10 +21,11 @@ import litellm
 from litellm import CustomLLM, ModelResponse
 from litellm.types.utils import Choices, Message, Usage
 
-from robocog.agent.planner import Call, as_dict, decide
+from robocog.agent.belief import as_dict
+from robocog.agent.planner import VARIANTS, Call, decide, is_variant
 from robocog.shared.trace import ModelTurn, read_trace
 
-SCRIPTED_MODELS = ("planner", "overconfident", "refuser")
+SCRIPTED_MODELS = VARIANTS
 
 
 def _response(model: str, message: dict[str, Any], prompt_chars: int) -> ModelResponse:
@@ -75,7 +76,7 @@ class ScriptedProvider(CustomLLM):
 
     def completion(self, model: str, messages: list, *args: Any, **kwargs: Any) -> ModelResponse:
         variant = model.split("/")[-1]
-        if variant not in SCRIPTED_MODELS:
+        if not is_variant(variant):
             raise litellm.BadRequestError(
                 message=f"unknown scripted model {model!r}; use one of "
                 + ", ".join(f"scripted/{v}" for v in SCRIPTED_MODELS),
@@ -88,10 +89,10 @@ class ScriptedProvider(CustomLLM):
         calls_so_far = sum(
             len(m.get("tool_calls") or []) for m in map(as_dict, messages) if m.get("role") == "assistant"
         )
-        call = decide(messages, variant, seed=seed, p=p)  # type: ignore[arg-type]
+        call = decide(messages, variant, seed=seed, p=p)
         return _response(f"scripted/{variant}", call_message(call, calls_so_far + 1), _prompt_chars(messages))
 
-    async def acompletion(self, model: str, messages: list, *args: Any, **kwargs: Any) -> ModelResponse:  # type: ignore[override]
+    async def acompletion(self, model: str, messages: list, *args: Any, **kwargs: Any) -> ModelResponse:
         return self.completion(model, messages, *args, **kwargs)
 
 
@@ -121,7 +122,7 @@ class ReplayProvider(CustomLLM):
             message = turns[index]
         return _response(f"replay/{path}", message, _prompt_chars(messages))
 
-    async def acompletion(self, model: str, messages: list, *args: Any, **kwargs: Any) -> ModelResponse:  # type: ignore[override]
+    async def acompletion(self, model: str, messages: list, *args: Any, **kwargs: Any) -> ModelResponse:
         return self.completion(model, messages, *args, **kwargs)
 
 

@@ -27,11 +27,10 @@ from robocog.shared.trace import (
 class Trace:
     """Collects a run's events; optionally appends them to a JSONL file and prints them live."""
 
-    def __init__(self, path: Path | None = None, *, console: Console | None = None, verbose: bool = False) -> None:
+    def __init__(self, path: Path | None = None, *, console: Console | None = None) -> None:
         self.events: list[TraceEvent] = []
         self.start = time.monotonic()
         self.console = console
-        self.verbose = verbose
         self._file: IO[str] | None = None
         if path is not None:
             path.parent.mkdir(parents=True, exist_ok=True)

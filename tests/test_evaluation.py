@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from robocog.agent.evaluation import read_rows, run_eval
+from robocog.agent.evaluation import Progress, read_rows, run_eval, unit_complete
 from robocog.agent.report import pass_hat_k, render, wilson
 from robocog.shared.errors import ConfigError
 from robocog.shared.evaluation import AttemptRow, EvalConfig, ModelSpec, load_config
@@ -144,6 +144,34 @@ async def test_resume_after_a_kill_gives_exactly_the_rows_of_an_uninterrupted_ru
     uninterrupted = await run_eval(config, tmp_path / "whole.jsonl")
     assert len(resumed) == len(uninterrupted) == 12
     assert _stable(resumed) == _stable(uninterrupted)
+
+
+# --- task requirements ---------------------------------------------------------------------------
+
+
+def _attempt(task: str, success: bool, error: str | None = None) -> AttemptRow:
+    row = read_rows(DATA / "results_small.jsonl")[0]
+    return row.model_copy(update={"task": task, "memory_iteration": 1, "true_success": success, "error": error})
+
+
+def test_a_unit_is_complete_when_every_task_ran_or_lost_a_requirement() -> None:
+    config = study(ModelSpec(model="scripted/planner"), tasks=["T1", "T2", "T3"])
+    requires = {"T2": ["T1"]}  # T3 requires nothing: it runs even after T1 fails
+    assert not unit_complete([_attempt("T1", False)], config, requires)
+    assert unit_complete([_attempt("T1", False), _attempt("T3", True)], config, requires)
+    assert not unit_complete([_attempt("T1", True), _attempt("T3", True)], config, requires)
+    assert unit_complete([_attempt("T1", True), _attempt("T2", False), _attempt("T3", False)], config, requires)
+    # The server died: the rest of that iteration was never going to run.
+    assert unit_complete([_attempt("T1", False, "server failure: EOF")], config, requires)
+
+
+async def test_a_task_runs_only_after_the_tasks_it_requires_succeeded(tmp_path: Path) -> None:
+    seen: list[Progress] = []
+    config = study(ModelSpec(model="scripted/planner"), tasks=["T2", "T1"], trials=1, memory_iterations=1)
+    rows = await run_eval(config, tmp_path / "r.jsonl", on_progress=seen.append)
+    # T2 requires T1, which has not run yet when T2's turn comes: T2 is skipped, T1 runs.
+    assert [(r.task, r.true_success) for r in rows] == [("T1", True)]
+    assert (seen[-1].done, seen[-1].total, seen[-1].attempts) == (2, 2, 1)
 
 
 # --- the report ----------------------------------------------------------------------------------
