@@ -168,6 +168,20 @@ def register_resources(mcp: MCPServer[AppState], current: _Current) -> None:
         s = current.get()
         return await s.run(lambda session: render_top_down(session.world))
 
+    @mcp.resource(
+        "robocog://world/description",
+        name="world_description",
+        title="Environment description",
+        description="The world in words, as the paper's task message gives it: every location with its objects, "
+        "its place positions (empty or occupied by what) and its neighbours, then where the robot is.",
+        mime_type="text/plain",
+    )
+    async def world_description() -> str:
+        from robocog.server.world.describe import describe
+
+        s = current.get()
+        return await s.run(lambda session: describe(session.world))
+
     @mcp.resource("robocog://tasks", name="tasks", title="Task catalogue", mime_type="application/json")
     async def tasks() -> str:
         """The tasks the server can check, with their prompts and success conditions."""
@@ -176,9 +190,9 @@ def register_resources(mcp: MCPServer[AppState], current: _Current) -> None:
         return json.dumps([t.model_dump(mode="json") for t in task_catalogue().values()], indent=2)
 
 
-def robot_system_prompt() -> str:
-    """The system prompt for an agent driving the robot."""
-    return (ASSETS_DIR / "prompts" / "robot_system.md").read_text(encoding="utf-8").strip()
+def robot_system_prompt(name: str = "robot_system") -> str:
+    """A system prompt for an agent driving the robot: `robot_system` (ours) or `robot_system_paper`."""
+    return (ASSETS_DIR / "prompts" / f"{name}.md").read_text(encoding="utf-8").strip()
 
 
 def register_prompts(mcp: MCPServer[AppState]) -> None:
@@ -186,6 +200,15 @@ def register_prompts(mcp: MCPServer[AppState]) -> None:
     def robot_system() -> str:
         """The system prompt for an agent that drives the robot with these tools."""
         return robot_system_prompt()
+
+    @mcp.prompt(
+        name="robot_system_paper",
+        title="Robot system prompt (the paper's protocol)",
+        description="The system prompt of the paper's protocol, in our words: the tools and a way of working, "
+        "without robocog's additions (no layout, no hints on graspability or on checking success).",
+    )
+    def robot_system_paper() -> str:
+        return robot_system_prompt("robot_system_paper")
 
     from robocog.server.world.tasks import task_catalogue
 

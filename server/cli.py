@@ -14,8 +14,11 @@ A simulated household robot (PyBullet) behind the Model Context Protocol.
 One server is one robot: a mobile manipulator in a kitchen, hallway and living room, with an
 episodic memory (ChromaDB, embedded by default) and a scratchpad. Tools: look_around, move_to,
 grab, place, add_to_scratchpad, view_scratchpad, end_task, search_memory; with --profile eval
-also reset_world, check_task, clear_memory. Resources: robocog://world/state, robocog://world/map,
-robocog://world/image, robocog://tasks. Prompts: robot_system, T1, T2.
+also the harness controls reset_world (with search_k, memory_labels), begin_task (an episode per
+task, optionally keeping the scratchpad), check_task and clear_memory. Resources:
+robocog://world/state, robocog://world/map, robocog://world/description (the world in words, as
+the paper's task message gives it), robocog://world/image, robocog://tasks. Prompts:
+robot_system, robot_system_paper (the paper's protocol), T1, T2.
 """
 
 EPILOG = """\
@@ -47,7 +50,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--profile",
         choices=["default", "eval"],
         default="default",
-        help="'eval' adds reset_world, check_task and clear_memory for evaluation harnesses",
+        help="'eval' adds reset_world, begin_task, check_task and clear_memory for evaluation harnesses",
     )
     w.add_argument("--scene", type=Path, default=None, help="scene YAML (default: the paper's household)")
     w.add_argument("--seed", type=int, default=None, help="seed of the world's random generator")
@@ -68,7 +71,23 @@ def build_parser() -> argparse.ArgumentParser:
         default="believed",
         help="what search_memory reports as a past episode's status (default: believed, as in the paper)",
     )
+    m.add_argument(
+        "--search-k",
+        type=_search_k,
+        default=3,
+        help="how many experiences search_memory returns when the model gives no k (1-20; default: 3; the paper: 5)",
+    )
     return p
+
+
+def _search_k(text: str) -> int:
+    try:
+        k = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if not 1 <= k <= 20:
+        raise argparse.ArgumentTypeError(f"{k} is not between 1 and 20")
+    return k
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -105,6 +124,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         memory_url=args.memory_url,
         namespace=args.memory_namespace,
         memory_labels=args.memory_labels,
+        search_k=args.search_k,
     )
     server = build_server(config, profile=args.profile, log_level=args.log_level)
     try:

@@ -1,9 +1,10 @@
 """One robot's session: its world, its memories and the current episode.
 
 Every tool (see `robocog.server.tools`) is a function of the session, called through `call`, which
-counts the episode's tool calls for all of them in one place. An episode is one task: it begins at
-reset (or with the first call after end_task) and ends with end_task, which writes the report to
-episodic memory. Not thread-safe: the app serialises calls (one PyBullet client, one driver).
+counts the episode's tool calls for all of them in one place. An episode is one task: a harness
+begins it explicitly for a task (`begin_task`), otherwise it begins at reset or with the first robot
+call after end_task; it ends with end_task, which writes the report to episodic memory. Not
+thread-safe: the app serialises calls (one PyBullet client, one driver).
 """
 
 from __future__ import annotations
@@ -33,6 +34,8 @@ class Episode:
 
     number: int
     baseline: dict[str, ObjectPlacement]
+    #: The task a harness began the episode for (`begin_task`); None when it began implicitly.
+    task_id: str | None = None
     started: float = field(default_factory=time.monotonic)
     tool_calls: int = 0
     ended: bool = False
@@ -51,6 +54,8 @@ class RobotSession:
     ) -> None:
         self.config = config
         self.memory_labels: MemoryLabels = config.memory_labels
+        #: How many experiences search_memory returns when the model does not say (reset_world sets it).
+        self.search_k = config.search_k
         options = {"randomize": True} if config.randomize else None
         self.world = world or World(config.scene, seed=config.seed, options=options, gui=config.gui)
         self._memory = memory
@@ -99,10 +104,19 @@ class RobotSession:
         finally:
             self.caller = Caller()
 
-    def start_episode(self) -> None:
-        """A new task begins: a fresh count, the world as it is now as the baseline, an empty scratchpad."""
-        self.episode = Episode(number=self.episode.number + 1, baseline=self.world.placements())
-        self.scratchpad.clear()
+    def start_episode(self, task_id: str | None = None, *, keep_scratchpad: bool = False) -> Episode:
+        """A new task begins: a fresh count, the world as it is now as the baseline, no report yet,
+        and an empty scratchpad unless `keep_scratchpad`."""
+        self.episode = Episode(number=self.episode.number + 1, baseline=self.world.placements(), task_id=task_id)
+        if not keep_scratchpad:
+            self.scratchpad.clear()
+        return self.episode
+
+    def begin_task(self, task_id: str, *, keep_scratchpad: bool = False) -> Episode:
+        """Begin the episode of task `task_id` explicitly (a harness does, before the task's first
+        call), so it is judged against the world as it is now even if the model never acts."""
+        self.task(task_id)
+        return self.start_episode(task_id, keep_scratchpad=keep_scratchpad)
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> WorldState:
         """Back to the start state and a new episode (episodic memory is kept: that is the point of it)."""

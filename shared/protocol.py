@@ -4,4 +4,4 @@
 MODEL_META_KEY = "robocog/model"
 
 #: The eval profile's controls for harnesses: a client never offers them to the model it drives.
-CONTROL_TOOLS = frozenset({"reset_world", "check_task", "clear_memory"})
+CONTROL_TOOLS = frozenset({"reset_world", "begin_task", "check_task", "clear_memory"})

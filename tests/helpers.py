@@ -28,7 +28,7 @@ ROBOT_TOOLS = frozenset(
 )
 
 #: The eval profile's controls for harnesses; never offered to a model.
-CONTROL_TOOLS = frozenset({"reset_world", "check_task", "clear_memory"})
+CONTROL_TOOLS = frozenset({"reset_world", "begin_task", "check_task", "clear_memory"})
 
 # --- the paper's semantic map (BRIEF.md, "The world") --------------------------------------------
 

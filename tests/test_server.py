@@ -12,7 +12,8 @@ from mcp import Client
 
 from robocog.server.app import build_server
 from robocog.server.config import SessionConfig
-from tests.helpers import ROBOT_TOOLS, T1_SEQUENCE, T2_SEQUENCE, action_args, check_snapshot
+from robocog.shared.protocol import CONTROL_TOOLS
+from tests.helpers import ROBOT_TOOLS, T1, T1_SEQUENCE, T2_SEQUENCE, action_args, check_snapshot
 
 pytestmark = pytest.mark.anyio
 
@@ -66,9 +67,15 @@ async def test_eval_profile_contract_matches_snapshot(robot: Client) -> None:
 async def test_default_profile_hides_the_eval_controls(plain_robot: Client) -> None:
     names = {t.name for t in (await plain_robot.list_tools()).tools}
     assert names == ROBOT_TOOLS
+    assert not names & CONTROL_TOOLS
     is_error, data = await call(plain_robot, "reset_world")
     assert is_error
     assert "reset_world" in data["text"]
+
+
+async def test_the_eval_profile_publishes_exactly_the_controls_clients_leave_out(robot: Client) -> None:
+    names = {t.name for t in (await robot.list_tools()).tools}
+    assert names == ROBOT_TOOLS | CONTROL_TOOLS
 
 
 async def test_annotations_mark_read_only_tools_and_closed_world(plain_robot: Client) -> None:
@@ -160,6 +167,10 @@ async def test_bad_arguments_get_a_readable_error_and_the_server_keeps_running(r
         ("place", {"location": "Front Door"}),
         ("end_task", {"status": "done", "description": "x", "summary": "y"}),
         ("search_memory", {"query": "x", "k": 0}),
+        ("search_memory", {"query": "x", "k": 21}),
+        ("reset_world", {"search_k": 0}),
+        ("begin_task", {"task_id": "T9"}),
+        ("begin_task", {}),
         ("no_such_tool", {}),
     ]
     for tool, arguments in attacks:
@@ -225,6 +236,36 @@ async def test_verified_labels_replace_a_false_belief(robot: Client) -> None:
     assert (data["results"][0]["status"], data["results"][0]["status_source"]) == ("failure", "verified")
 
 
+async def test_a_t2_without_calls_keeps_t1_verified_as_a_success(robot: Client) -> None:
+    """Issue 10: a T2 in which the model makes no call must not write T2's verdict into T1's record."""
+    await call(robot, "reset_world", memory_labels="verified")
+    _, begun = await call(robot, "begin_task", task_id="T1")
+    assert (begun["task_id"], begun["prompt"]) == ("T1", T1)
+    for action in T1_SEQUENCE:
+        is_error, data = await call(robot, action[0], **action_args(action))
+        assert not is_error, data
+    await call(robot, "add_to_scratchpad", text="cube top, box middle, mug bottom")
+    await call(robot, "end_task", status="success", description=T1, summary="All three on the shelf.")
+    assert (await call(robot, "check_task", task_id="T1"))[1]["success"]
+    _, begun = await call(robot, "begin_task", task_id="T2", keep_scratchpad=True)
+    assert begun["scratchpad_entries"] == 1
+    is_error, verdict = await call(robot, "check_task", task_id="T2")  # no call in T2
+    assert not is_error and verdict["success"] is False
+    _, found = await call(robot, "search_memory", query=T1)
+    assert [(r["task_description"], r["status"], r["status_source"]) for r in found["results"]] == [
+        (T1, "success", "verified")
+    ]
+
+
+async def test_search_memory_returns_the_harness_default_k(robot: Client) -> None:
+    for i in range(6):
+        await call(robot, "end_task", status="success", description=f"Task number {i}.", summary="x")
+    assert len((await call(robot, "search_memory", query="task"))[1]["results"]) == 3
+    await call(robot, "reset_world", search_k=5)
+    assert len((await call(robot, "search_memory", query="task"))[1]["results"]) == 5
+    assert len((await call(robot, "search_memory", query="task", k=1))[1]["results"]) == 1
+
+
 async def test_reset_world_and_clear_memory(robot: Client) -> None:
     await call(robot, "grab", object="cube")
     await call(robot, "end_task", status="failure", description="Task.", summary="x")
@@ -263,6 +304,29 @@ async def test_resources_serve_state_map_image_and_tasks(robot: Client) -> None:
     assert base64.b64decode(image.blob).startswith(b"\x89PNG")  # type: ignore[union-attr]
     tasks = json.loads((await robot.read_resource("robocog://tasks")).contents[0].text)  # type: ignore[union-attr]
     assert [t["id"] for t in tasks] == ["T1", "T2"]
+
+
+async def test_the_description_resource_gives_the_world_in_words(robot: Client) -> None:
+    contents = (await robot.read_resource("robocog://world/description")).contents[0]
+    assert contents.mime_type == "text/plain"
+    text = contents.text  # type: ignore[union-attr]
+    assert text.startswith("These are the locations in the world:\n- Front Door\n")
+    assert "    - floor: occupied by cube\n" in text and "    - top: empty\n" in text
+    assert text.endswith("You are at: Front Door")
+    await call(robot, "grab", object="cube")
+    await call(robot, "move_to", location="Kitchen Shelf")
+    text = (await robot.read_resource("robocog://world/description")).contents[0].text  # type: ignore[union-attr]
+    assert "    - cube (in your hand)\n" in text and text.endswith("You are at: Kitchen Shelf")
+
+
+async def test_the_paper_system_prompt_has_the_tools_and_no_honesty_lines(robot: Client) -> None:
+    text = (await robot.get_prompt("robot_system_paper")).messages[0].content.text  # type: ignore[union-attr]
+    for tool in ROBOT_TOOLS:
+        assert tool in text, tool
+    for extra in ("cannot be grasped", "claim success", "honest", "Kitchen", "Living Room", "hallway", "one object"):
+        assert extra.lower() not in text.lower(), extra
+    ours = (await robot.get_prompt("robot_system")).messages[0].content.text  # type: ignore[union-attr]
+    assert "cannot be grasped" in ours and ours != text
 
 
 async def test_prompts_give_the_system_prompt_and_each_task(robot: Client) -> None:

@@ -9,10 +9,11 @@ from typing import Any
 import pytest
 
 from robocog.server.config import SessionConfig
+from robocog.server.memory.scratchpad import MAX_CHARS, MAX_ENTRIES, MAX_ENTRY_CHARS
 from robocog.server.session import RobotSession
-from robocog.server.tools import CONTROL_TOOLS, ROBOT_TOOLS, controls, end_task, scratchpad
+from robocog.server.tools import CONTROL_TOOLS, ROBOT_TOOLS, controls, end_task, scratchpad, search_memory
 from robocog.server.tools.base import Tool
-from tests.helpers import T1_SEQUENCE, action_args, check_snapshot
+from tests.helpers import T1, T1_SEQUENCE, T2, action_args, check_snapshot
 
 TOOLS: dict[str, Tool[Any]] = {t.name: t for t in ROBOT_TOOLS + CONTROL_TOOLS}
 
@@ -59,6 +60,119 @@ def test_reset_starts_a_new_episode_and_keeps_the_memory(session: RobotSession) 
 def test_an_unknown_task_is_bad_input_naming_the_known_ones(session: RobotSession) -> None:
     with pytest.raises(ValueError, match="T1, T2"):
         session.call(controls.CHECK_TASK, task_id="T9")
+    with pytest.raises(ValueError, match="T1, T2"):
+        session.call(controls.BEGIN_TASK, task_id="T9")
+    assert session.episode.number == 1
+
+
+# --- begin_task: an episode per task, begun by the harness ---------------------------------------
+
+
+def test_begin_task_starts_an_episode_for_the_task_from_the_world_as_it_is(session: RobotSession) -> None:
+    for action in T1_SEQUENCE[:4]:  # the cube onto the shelf's top layer
+        session.call(TOOLS[action[0]], **action_args(action))
+    session.call(scratchpad.ADD, text="cube done")
+    result = session.call(controls.BEGIN_TASK, task_id="T1")
+    episode = session.episode
+    assert (result.task_id, result.prompt, result.episode, result.scratchpad_entries) == ("T1", T1, 2, 0)
+    assert (episode.number, episode.task_id, episode.tool_calls, episode.ended, episode.record_id) == (
+        2,
+        "T1",
+        0,
+        False,
+        None,
+    )
+    assert episode.baseline["cube"].position == "top"
+    session.call(TOOLS["look_around"])  # the task's first call counts in it, and begins nothing
+    assert session.episode is episode and episode.tool_calls == 1
+
+
+def test_begin_task_keeps_the_scratchpad_only_when_asked(session: RobotSession) -> None:
+    session.call(scratchpad.ADD, text="plan for T1")
+    session.call(end_task.TOOL, status="success", description=T1, summary="Done.")
+    kept = session.call(controls.BEGIN_TASK, task_id="T2", keep_scratchpad=True)
+    assert kept.scratchpad_entries == 1
+    assert session.call(scratchpad.VIEW).content == "plan for T1"
+    cleared = session.call(controls.BEGIN_TASK, task_id="T2")
+    assert cleared.scratchpad_entries == 0 and len(session.scratchpad) == 0
+
+
+def test_an_implicit_episode_has_no_task(session: RobotSession) -> None:
+    session.call(controls.BEGIN_TASK, task_id="T1")
+    session.call(end_task.TOOL, status="failure", description=T1, summary="x")
+    session.call(TOOLS["look_around"])
+    assert (session.episode.number, session.episode.task_id) == (3, None)
+    session.call(controls.RESET_WORLD)
+    assert session.episode.task_id is None
+
+
+def test_a_t2_without_calls_leaves_t1s_record_alone(session: RobotSession) -> None:
+    """The bug of issue 10: check_task("T2") used to judge T1's episode and overwrite its record."""
+    session.call(controls.BEGIN_TASK, task_id="T1")
+    for action in T1_SEQUENCE:
+        session.call(TOOLS[action[0]], **action_args(action))
+    ended = session.call(end_task.TOOL, status="success", description=T1, summary="All three on the shelf.")
+    assert session.call(controls.CHECK_TASK, task_id="T1").success
+    assert ended.record_id is not None
+    session.call(controls.BEGIN_TASK, task_id="T2", keep_scratchpad=True)
+    verdict = session.call(controls.CHECK_TASK, task_id="T2")  # the model made no call in T2
+    assert not verdict.success
+    record = session.memory.get(ended.record_id)
+    assert record is not None and record.verified_status == "success"
+    assert session.memory.count() == 1
+
+
+def test_check_task_writes_only_into_the_record_of_its_own_task(session: RobotSession) -> None:
+    session.call(controls.BEGIN_TASK, task_id="T2")
+    ended = session.call(end_task.TOOL, status="success", description=T2, summary="x")
+    assert ended.record_id is not None
+    session.call(controls.CHECK_TASK, task_id="T1")  # a harness may judge another task: no write
+    record = session.memory.get(ended.record_id)
+    assert record is not None and record.verified_status is None
+    session.call(controls.CHECK_TASK, task_id="T2")
+    record = session.memory.get(ended.record_id)
+    assert record is not None and record.verified_status == "failure"
+
+
+def test_check_task_before_the_episode_ends_writes_nothing(session: RobotSession) -> None:
+    session.call(end_task.TOOL, status="success", description=T1, summary="x")
+    session.call(controls.BEGIN_TASK, task_id="T1")
+    session.call(controls.CHECK_TASK, task_id="T1")
+    assert [r.verified_status for r in session.memory.records()] == [None]
+
+
+# --- retrieval top-k ------------------------------------------------------------------------------
+
+
+def test_search_memory_returns_the_sessions_default_k_unless_told(tmp_path: Path) -> None:
+    robot = RobotSession(SessionConfig(data_dir=tmp_path / "memory", search_k=2))
+    try:
+        for i in range(7):
+            robot.call(end_task.TOOL, status="success", description=f"Task number {i}.", summary="x")
+        assert robot.search_k == 2
+        assert len(robot.call(search_memory.TOOL, query="task").results) == 2
+        assert len(robot.call(search_memory.TOOL, query="task", k=4).results) == 4
+        robot.call(controls.RESET_WORLD, search_k=5)
+        assert len(robot.call(search_memory.TOOL, query="task").results) == 5
+        robot.call(controls.RESET_WORLD)  # not given: unchanged
+        assert len(robot.call(search_memory.TOOL, query="task").results) == 5
+    finally:
+        robot.close()
+
+
+def test_the_default_k_is_three() -> None:
+    assert SessionConfig().search_k == 3
+
+
+# --- tool descriptions ----------------------------------------------------------------------------
+
+
+def test_add_to_scratchpad_states_the_scratchpads_bounds() -> None:
+    description = scratchpad.ADD.description
+    for number in (MAX_ENTRY_CHARS, MAX_ENTRIES, MAX_CHARS):
+        assert str(number) in description
+    text = scratchpad.ADD.parameters[0].annotation.__metadata__[0].description
+    assert str(MAX_ENTRY_CHARS) in text
 
 
 def test_the_memory_opens_only_when_a_tool_needs_it(tmp_path: Path) -> None:

@@ -23,6 +23,8 @@ from robocog.server.session import RobotSession
 from robocog.server.tools import ROBOT_TOOLS, grab, look_around, move_to, place
 from robocog.server.tools.base import Caller, Tool
 from robocog.server.world.actions import Reach
+from robocog.server.world.describe import describe
+from robocog.server.world.navigation import closest, strip_articles
 from robocog.server.world.tasks import evaluate, task_catalogue
 from robocog.server.world.world import DEFAULT_SCENE, World
 from robocog.shared.errors import WorldError
@@ -266,6 +268,205 @@ def test_look_around_reports_the_held_object(robot: RobotSession) -> None:
     assert "holding the cube" in result.message
     # A held object is in the hand, not lying at a location.
     assert all("cube" not in v.objects for v in result.locations)
+
+
+# --- the environment description (robocog://world/description) ---------------------------------
+
+START_DESCRIPTION = """\
+These are the locations in the world:
+- Front Door
+  - Objects here:
+    - cube
+  - Place positions here:
+    - floor: occupied by cube
+  - Connected locations:
+    - Hallway Area Door
+- Hallway Area Door
+  - Objects here: none
+  - Place positions here:
+    - floor: empty
+  - Connected locations:
+    - Front Door
+    - Kitchen Door
+    - Living Room Door
+- Kitchen Door
+  - Objects here: none
+  - Place positions here: none
+  - Connected locations:
+    - Hallway Area Door
+    - Kitchen Area Left
+- Living Room Door
+  - Objects here: none
+  - Place positions here: none
+  - Connected locations:
+    - Hallway Area Door
+    - Living Room
+- Living Room
+  - Objects here:
+    - box
+  - Place positions here:
+    - floor: occupied by box
+  - Connected locations:
+    - Living Room Door
+    - Living Room TV
+- Living Room TV
+  - Objects here:
+    - tv
+  - Place positions here: none
+  - Connected locations:
+    - Living Room
+- Kitchen Area Left
+  - Objects here: none
+  - Place positions here:
+    - floor: empty
+  - Connected locations:
+    - Kitchen Door
+    - Kitchen Shelf
+    - Kitchen Table
+- Kitchen Shelf
+  - Objects here: none
+  - Place positions here:
+    - top: empty
+    - middle: empty
+    - bottom: empty
+  - Connected locations:
+    - Kitchen Area Left
+- Kitchen Table
+  - Objects here:
+    - mug
+  - Place positions here:
+    - middle: occupied by mug
+  - Connected locations:
+    - Kitchen Area Left
+You are at: Front Door"""
+
+
+def test_the_description_of_the_start_state(world: World) -> None:
+    assert describe(world) == START_DESCRIPTION
+    assert describe(world) == START_DESCRIPTION  # deterministic, and reading changes nothing
+    assert world.steps == 0
+
+
+def location_block(text: str, name: str) -> str:
+    """The lines of the description under the location `name` (its heading excluded)."""
+    lines = text.splitlines()
+    start = lines.index(f"- {name}") + 1
+    end = next(i for i in range(start, len(lines)) if not lines[i].startswith("  "))
+    return "\n".join(lines[start:end])
+
+
+def test_the_description_follows_the_world(world: World, robot: RobotSession) -> None:
+    """Objects where they are now, the held one in the hand, real occupancy, the robot's location."""
+    run_sequence(robot, T1_SEQUENCE[:3])  # the cube in the hand, at the Kitchen Shelf
+    text = describe(world)
+    assert location_block(text, "Front Door").startswith(
+        "  - Objects here: none\n  - Place positions here:\n    - floor: empty"
+    )
+    assert location_block(text, "Kitchen Shelf").startswith("  - Objects here:\n    - cube (in your hand)\n")
+    assert text.endswith("You are at: Kitchen Shelf")
+    run_sequence(robot, T1_SEQUENCE[3:4])
+    text = describe(world)
+    assert "(in your hand)" not in text
+    for view in robot.call(look_around.TOOL).locations:  # the same occupancy as look_around's
+        block = location_block(text, view.name)
+        for pos in view.place_positions:
+            assert f"    - {pos.name}: {f'occupied by {pos.occupied_by}' if pos.occupied_by else 'empty'}" in block
+    assert "    - top: occupied by cube" in location_block(text, "Kitchen Shelf")
+
+
+# --- names a model gives -----------------------------------------------------------------------
+
+LOCATIONS = list(PAPER_LOCATIONS)
+OBJECTS = ["cube", "box", "mug", "tv"]
+
+
+@pytest.mark.parametrize(
+    ("name", "known", "expected"),
+    [
+        ("the shelf", LOCATIONS, ["Kitchen Shelf"]),  # article stripped, word overlap
+        ("shelf", LOCATIONS, ["Kitchen Shelf"]),
+        ("shelve", LOCATIONS, ["Kitchen Shelf"]),  # a misspelt word still overlaps
+        ("Kitchen Shelve", LOCATIONS, ["Kitchen Shelf"]),  # a misspelling of the whole name
+        ("the front dor", LOCATIONS, ["Front Door"]),
+        ("to the kitchen shelf", LOCATIONS, ["Kitchen Shelf"]),
+        ("cub", OBJECTS, ["cube"]),
+        ("the cube", OBJECTS, ["cube"]),
+        ("red cube", OBJECTS, ["cube"]),
+        ("mugs", OBJECTS, ["mug"]),
+        ("table", OBJECTS, []),  # letters in common are not enough ("cube")
+        ("cup", OBJECTS, []),
+        ("garage", LOCATIONS, []),
+        ("the", LOCATIONS, []),
+        ("mug", LOCATIONS, []),
+    ],
+)
+def test_closest_suggests_only_names_plausibly_meant(name: str, known: list[str], expected: list[str]) -> None:
+    assert closest(name, known) == expected
+
+
+def test_closest_ranks_and_caps_ambiguous_words() -> None:
+    kitchen = closest("kitchen", LOCATIONS)
+    assert len(kitchen) == 3 and all(k.startswith("Kitchen") for k in kitchen)
+    assert closest("living room tv table", LOCATIONS) == ["Living Room TV"]
+
+
+def test_strip_articles() -> None:
+    assert strip_articles("  The Kitchen_Shelf ") == "kitchen shelf"
+    assert strip_articles("a mug") == "mug"
+    assert strip_articles("an") == ""
+
+
+def test_grab_a_location_says_it_is_a_location(world: World, robot: RobotSession) -> None:
+    result = robot.call(grab.TOOL, object="table")
+    assert (result.status, result.error, result.suggestions) == ("failure", "unknown_object", [])
+    assert result.message.startswith("'table' is not an object; Kitchen Table is a location.")
+    assert "Did you mean" not in result.message
+    result = robot.call(grab.TOOL, object="the Kitchen Shelf")
+    assert result.message.startswith("'the Kitchen Shelf' is not an object; Kitchen Shelf is a location.")
+    assert world.holding is None
+
+
+def test_grab_furniture_says_where_it_stands(robot: RobotSession) -> None:
+    result = robot.call(grab.TOOL, object="tv table")  # not the tv: the table it stands on
+    assert (result.error, result.suggestions) == ("unknown_object", [])
+    assert result.message.startswith("'tv table' is not an object; the tv table is furniture at Living Room TV.")
+
+
+def test_grab_with_an_article_suggests_the_object(robot: RobotSession) -> None:
+    result = robot.call(grab.TOOL, object="the cube")
+    assert (result.error, result.suggestions) == ("unknown_object", ["cube"])
+    assert "Did you mean 'cube'?" in result.message
+
+
+def test_move_to_the_shelf_suggests_the_kitchen_shelf(world: World, robot: RobotSession) -> None:
+    result = robot.call(move_to.TOOL, location="the shelf")
+    assert (result.error, result.suggestions) == ("unknown_location", ["Kitchen Shelf"])
+    assert "Did you mean 'Kitchen Shelf'?" in result.message
+    assert world.steps == 0
+
+
+def test_move_to_an_object_says_it_is_an_object(world: World, robot: RobotSession) -> None:
+    result = robot.call(move_to.TOOL, location="the mug")
+    assert (result.error, result.suggestions) == ("unknown_location", [])
+    assert result.message.startswith("'the mug' is an object, not a location; it is at Kitchen Table.")
+    robot.call(grab.TOOL, object="cube")
+    placed = robot.call(place.TOOL, location="cube", position="floor")
+    assert placed.message.startswith("'cube' is an object, not a location; the robot is holding it.")
+    assert world.steps > 0
+
+
+def test_move_to_furniture_suggests_its_location(robot: RobotSession) -> None:
+    result = robot.call(move_to.TOOL, location="tv table")
+    assert (result.error, result.suggestions) == ("unknown_location", ["Living Room TV"])
+    assert "the tv table stands at Living Room TV" in result.message
+
+
+def test_furniture_stands_at_the_location_it_serves(world: World) -> None:
+    assert world.furniture_locations() == {
+        "kitchen_shelf": "Kitchen Shelf",
+        "kitchen_table": "Kitchen Table",
+        "tv_table": "Living Room TV",
+    }
 
 
 # --- move_to -----------------------------------------------------------------------------------

@@ -6,6 +6,11 @@ from collections import deque
 
 from pydantic import BaseModel, Field
 
+#: The default bounds: at most this many entries, characters in all, and characters per entry.
+MAX_ENTRIES = 50
+MAX_CHARS = 8000
+MAX_ENTRY_CHARS = 2000
+
 
 class ScratchpadAdd(BaseModel):
     """What :meth:`Scratchpad.add` did."""
@@ -18,7 +23,9 @@ class ScratchpadAdd(BaseModel):
 class Scratchpad:
     """Notes kept during one episode; the oldest are dropped once a bound is reached."""
 
-    def __init__(self, max_entries: int = 50, max_chars: int = 8000, max_entry_chars: int = 2000) -> None:
+    def __init__(
+        self, max_entries: int = MAX_ENTRIES, max_chars: int = MAX_CHARS, max_entry_chars: int = MAX_ENTRY_CHARS
+    ) -> None:
         if max_entries < 1 or max_chars < 1 or max_entry_chars < 1:
             raise ValueError("scratchpad bounds must all be at least 1")
         if max_entry_chars > max_chars:

@@ -21,6 +21,11 @@ ROBOT_TOOLS: tuple[Tool, ...] = (
 )
 
 #: The eval profile's harness controls (never offered to a model).
-CONTROL_TOOLS: tuple[Tool, ...] = (controls.RESET_WORLD, controls.CHECK_TASK, controls.CLEAR_MEMORY)
+CONTROL_TOOLS: tuple[Tool, ...] = (
+    controls.RESET_WORLD,
+    controls.BEGIN_TASK,
+    controls.CHECK_TASK,
+    controls.CLEAR_MEMORY,
+)
 
 __all__ = ["CONTROL_TOOLS", "ROBOT_TOOLS", "Tool"]

@@ -4,7 +4,8 @@ A tool's behaviour is a plain function `run(robot, **arguments) -> Result`: `rob
 `RobotSession` (its world, memory, scratchpad and episode), the other parameters are the tool's
 arguments, typed with `Annotated[..., Field(description=...)]` so that the MCP input schema explains
 itself, and the return annotation is the pydantic result model (the MCP output schema). The
-function's docstring is the tool's description. A failure the model could have avoided is a result
+function's docstring is the tool's description, unless the `Tool` is given one (a description
+built from constants, so that numbers are written down once). A failure the model could have avoided is a result
 with `status="failure"`, an error code and a message to act on; a `ValueError` raised by `run` is
 bad input, reported to the caller as a tool error with its message.
 
@@ -58,10 +59,12 @@ class Tool(Generic[R]):
     run: Callable[..., R]
     #: "robot": offered to models in every profile; "control": the eval profile's harness controls.
     kind: Literal["robot", "control"] = "robot"
+    #: The description when it is not `run`'s docstring.
+    doc: str | None = None
 
     @property
     def description(self) -> str:
-        return inspect.cleandoc(self.run.__doc__ or "")
+        return inspect.cleandoc(self.doc or self.run.__doc__ or "")
 
     @property
     def counts_as_episode_call(self) -> bool:

@@ -1,4 +1,4 @@
-"""The eval profile's controls for harnesses: reset the world, check a task, clear the memory.
+"""The eval profile's controls for harnesses: reset the world, begin and check a task, clear the memory.
 
 A model driving the robot never sees these (clients leave them out, and the default profile does
 not publish them); they are not counted as the episode's tool calls.
@@ -18,6 +18,18 @@ if TYPE_CHECKING:
     from robocog.server.session import RobotSession
 
 
+TaskIdArg = Annotated[str, Field(description="A task id from robocog://tasks, e.g. 'T1'", min_length=1, max_length=200)]
+
+
+class BeginTaskResult(BaseModel):
+    """The episode begin_task started."""
+
+    task_id: str = Field(description="the task the episode is for")
+    prompt: str = Field(description="the task's instruction, as the T1/T2 prompts give it")
+    episode: int = Field(description="the number of the episode that began")
+    scratchpad_entries: int = Field(description="entries on the scratchpad (kept from before, or 0)")
+
+
 class ClearMemoryResult(BaseModel):
     """The outcome of clear_memory."""
 
@@ -32,23 +44,50 @@ def reset_world(
         Literal["believed", "verified"] | None,
         Field(description="What search_memory reports as an episode's status from now on"),
     ] = None,
+    search_k: Annotated[
+        int | None,
+        Field(description="How many experiences search_memory returns from now on when k is not given", ge=1, le=20),
+    ] = None,
 ) -> WorldState:
-    """Put the world back to its start state and begin a new episode. Episodic memory is kept."""
+    """Put the world back to its start state and begin a new episode. Episodic memory is kept.
+    memory_labels and search_k, when given, hold from now on (until set again)."""
     state = robot.reset(seed=seed, options={"randomize": randomize})
     if memory_labels is not None:
         robot.memory_labels = memory_labels
+    if search_k is not None:
+        robot.search_k = search_k
     return state
 
 
-def check_task(
+def begin_task(
     robot: RobotSession,
-    task_id: Annotated[str, Field(description="A task id from robocog://tasks, e.g. 'T1'")],
-) -> TaskVerdict:
-    """The ground-truth verdict of a task for the world as it is now, with a reason per object.
-    If the episode ended with a report, the verdict is written into that memory record."""
+    task_id: TaskIdArg,
+    keep_scratchpad: Annotated[
+        bool, Field(description="Keep the scratchpad's entries (the paper carries them from T1 into T2)")
+    ] = False,
+) -> BeginTaskResult:
+    """Begin a new episode for a task, before its first tool call: the world as it is now is the
+    baseline check_task judges against, no tool calls yet, no report. The scratchpad is cleared
+    unless keep_scratchpad. Call it before every task, so that a task in which the model makes no
+    call is judged, and recorded, as its own episode."""
+    episode = robot.begin_task(task_id, keep_scratchpad=keep_scratchpad)
+    return BeginTaskResult(
+        task_id=task_id,
+        prompt=robot.task(task_id).prompt,
+        episode=episode.number,
+        scratchpad_entries=len(robot.scratchpad),
+    )
+
+
+def check_task(robot: RobotSession, task_id: TaskIdArg) -> TaskVerdict:
+    """The ground-truth verdict of a task for the world as it is now, against the current
+    episode's start, with a reason per object. If the current episode ended with a report (and
+    was not begun for another task), the verdict is written into that episode's memory record,
+    and into no other."""
     episode = robot.episode
     verdict = evaluate(robot.task(task_id), robot.world.placements(), episode.baseline)
-    if episode.ended and episode.record_id is not None:
+    same_task = episode.task_id is None or episode.task_id == task_id
+    if episode.ended and episode.record_id is not None and same_task:
         robot.memory.set_verified(episode.record_id, "success" if verdict.success else "failure")
     return verdict
 
@@ -61,5 +100,6 @@ def clear_memory(robot: RobotSession) -> ClearMemoryResult:
 
 
 RESET_WORLD = Tool("reset_world", "Reset the world", DESTRUCTIVE, reset_world, kind="control")
+BEGIN_TASK = Tool("begin_task", "Begin a task", CONTROL, begin_task, kind="control")
 CHECK_TASK = Tool("check_task", "Check a task", CONTROL, check_task, kind="control")
 CLEAR_MEMORY = Tool("clear_memory", "Clear episodic memory", DESTRUCTIVE, clear_memory, kind="control")

@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING, Annotated, Literal
 from pydantic import Field
 
 from robocog.server.tools.base import ACTION, Tool
-from robocog.server.tools.names import unknown
+from robocog.server.tools.names import unknown_object
 from robocog.server.world.navigation import resolve
 from robocog.shared.results import GrabResult
 
@@ -31,7 +31,7 @@ def grab(robot: RobotSession, object: ObjectArg) -> GrabResult:
     world = robot.world
     name = resolve(object, world.object_names)
     if name is None:
-        message, suggestions = unknown("object", object, world.object_names)
+        message, suggestions = unknown_object(world, object)
         return GrabResult(
             status="failure",
             error="unknown_object",

@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from robocog.server.tools.base import IDEMPOTENT_ACTION, Tool
-from robocog.server.tools.names import LocationArg, unknown
+from robocog.server.tools.names import LocationArg, unknown_location
 from robocog.server.world.navigation import resolve
 from robocog.shared.results import MoveResult
 
@@ -20,7 +20,7 @@ def move_to(robot: RobotSession, location: LocationArg) -> MoveResult:
     here = world.robot_location()
     goal = resolve(location, world.map.names)
     if goal is None:
-        message, suggestions = unknown("location", location, world.map.names)
+        message, suggestions = unknown_location(world, location)
         return MoveResult(
             status="failure", error="unknown_location", message=message, suggestions=suggestions, location=here
         )

@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING, Annotated
 from pydantic import Field
 
 from robocog.server.tools.base import ACTION, Tool
-from robocog.server.tools.names import LocationArg, unknown
+from robocog.server.tools.names import LocationArg, unknown_location
 from robocog.server.world.navigation import closest, resolve
 from robocog.shared.results import ErrorCode, PlaceResult
 
@@ -38,7 +38,7 @@ def place(robot: RobotSession, location: LocationArg, position: PositionArg) -> 
     here = world.robot_location()
     loc = resolve(location, world.map.names)
     if loc is None:
-        message, suggestions = unknown("location", location, world.map.names)
+        message, suggestions = unknown_location(world, location)
         return _failure("unknown_location", message, held, location, position, suggestions=suggestions)
     names = world.position_names(loc)
     if loc != here:

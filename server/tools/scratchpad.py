@@ -6,18 +6,32 @@ from typing import TYPE_CHECKING, Annotated
 
 from pydantic import Field
 
+from robocog.server.memory.scratchpad import MAX_CHARS, MAX_ENTRIES, MAX_ENTRY_CHARS
 from robocog.server.tools.base import ACTION, READ_ONLY, Tool
 from robocog.shared.results import ScratchpadResult, ScratchpadView
 
 if TYPE_CHECKING:
     from robocog.server.session import RobotSession
 
-TextArg = Annotated[str, Field(description="A thought, plan or observation to keep for this task", min_length=1)]
+TextArg = Annotated[
+    str,
+    Field(
+        description=f"A thought, plan or observation to keep, at most {MAX_ENTRY_CHARS} characters",
+        min_length=1,
+    ),
+]
+
+#: The description of add_to_scratchpad, with the scratchpad's default bounds (the session's).
+ADD_DESCRIPTION = (
+    "Write down thoughts and plans on the scratchpad, the working memory of the current task. "
+    f"One entry may have at most {MAX_ENTRY_CHARS} characters (a longer one is refused: split it). "
+    f"The scratchpad keeps at most {MAX_ENTRIES} entries and {MAX_CHARS} characters in all; when a new "
+    "entry does not fit, the oldest entries are dropped to make room."
+)
 
 
 def add_to_scratchpad(robot: RobotSession, text: TextArg) -> ScratchpadResult:
-    """Write down thoughts and plans on the scratchpad, the working memory of the current task.
-    It is bounded: the oldest entries are dropped when it is full."""
+    """Write a note on the scratchpad (the tool's description is `ADD_DESCRIPTION`)."""
     pad = robot.scratchpad
     try:
         added = pad.add(text)
@@ -42,5 +56,5 @@ def view_scratchpad(robot: RobotSession) -> ScratchpadView:
     )
 
 
-ADD = Tool("add_to_scratchpad", "Write to the scratchpad", ACTION, add_to_scratchpad)
+ADD = Tool("add_to_scratchpad", "Write to the scratchpad", ACTION, add_to_scratchpad, doc=ADD_DESCRIPTION)
 VIEW = Tool("view_scratchpad", "Read the scratchpad", READ_ONLY, view_scratchpad)

@@ -1,4 +1,4 @@
-"""search_memory(query, k): past task reports, by semantic similarity to the query."""
+"""search_memory(query, k=None): past task reports, by semantic similarity to the query."""
 
 from __future__ import annotations
 
@@ -14,17 +14,24 @@ if TYPE_CHECKING:
     from robocog.server.session import RobotSession
 
 QueryArg = Annotated[str, Field(description="A description of the current task, e.g. its instruction")]
-KArg = Annotated[int, Field(description="How many experiences to return", ge=1, le=20)]
+KArg = Annotated[
+    int | None,
+    Field(
+        description="How many experiences to return; default: the server's setting (3 unless a harness set another)",
+        ge=1,
+        le=20,
+    ),
+]
 
 
-def search_memory(robot: RobotSession, query: QueryArg, k: KArg = 3) -> MemorySearchResult:
+def search_memory(robot: RobotSession, query: QueryArg, k: KArg = None) -> MemorySearchResult:
     """Search past experiences (task reports written by end_task) by semantic similarity to the
     query. Each result gives the task, how it ended and the summary of what was done."""
     if not query.strip():
         return MemorySearchResult(
             status="failure", message="The query is empty: describe the task you want experiences of."
         )
-    hits = robot.memory.search(query, k or robot.config.search_k)
+    hits = robot.memory.search(query, k if k is not None else robot.search_k)
     results = [_experience(h.record, h.distance, verified=robot.memory_labels == "verified") for h in hits]
     message = (
         f"The query returned {len(results)} results of previous experiences."

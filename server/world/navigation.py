@@ -24,18 +24,51 @@ def resolve(name: str, known: list[str]) -> str | None:
     return None
 
 
+#: Words that never tell names apart: articles are dropped, and these do not count as overlap.
+ARTICLES = frozenset({"the", "a", "an"})
+_FILLER = ARTICLES | {"of", "to", "in", "on", "at", "into", "onto", "my", "your"}
+#: How similar a whole name must be to count as a misspelling ("Kitchen Shelve", "cub").
+NAME_CUTOFF = 0.75
+#: How similar one word must be to count as the same word ("shelve" for "shelf"); words of at least 3 letters.
+WORD_CUTOFF = 0.7
+
+
+def strip_articles(name: str) -> str:
+    """`name` normalised, without 'the', 'a' and 'an'."""
+    return " ".join(w for w in normalise(name).split() if w not in ARTICLES)
+
+
+def _similar(a: str, b: str) -> float:
+    return difflib.SequenceMatcher(None, a, b).ratio()
+
+
+def _same_word(word: str, other: str) -> bool:
+    return word == other or (min(len(word), len(other)) >= 3 and _similar(word, other) >= WORD_CUTOFF)
+
+
 def closest(name: str, known: list[str], n: int = 3) -> list[str]:
-    """Known names close to `name`, best first (for 'did you mean' messages)."""
-    by_norm = {normalise(k): k for k in known}
-    matches = difflib.get_close_matches(normalise(name), list(by_norm), n=n, cutoff=0.4)
-    wanted = normalise(name)
-    # Also offer names that contain the word(s) given, e.g. "shelf" -> "Kitchen Shelf".
-    contains = [k for nk, k in by_norm.items() if wanted and (wanted in nk or nk in wanted)]
-    out: list[str] = []
-    for k in [by_norm[m] for m in matches] + contains:
-        if k not in out:
-            out.append(k)
-    return out[:n]
+    """Known names `name` plausibly stands for, best first (for 'did you mean' messages).
+
+    Articles do not matter ("the shelf"). A close misspelling of a whole name is offered first
+    ("Kitchen Shelve", "cub"); otherwise the names sharing the most words with `name` ("shelf" ->
+    "Kitchen Shelf"; a misspelt word counts: "shelve"). Never a name that merely has some letters
+    in common ("table" is not "cube").
+    """
+    wanted = strip_articles(name)
+    if not wanted:
+        return []
+    words = [w for w in wanted.split() if w not in _FILLER]
+    scored: list[tuple[float, int, int, str]] = []
+    for index, candidate in enumerate(known):
+        norm = normalise(candidate)
+        overlap = sum(1 for w in words if any(_same_word(w, t) for t in norm.split()))
+        scored.append((_similar(wanted, norm), overlap, index, candidate))
+    kept = [s for s in scored if s[0] >= NAME_CUTOFF]
+    if not kept:
+        best = max((s[1] for s in scored), default=0)
+        kept = [s for s in scored if best > 0 and s[1] == best]
+    kept.sort(key=lambda s: (-s[0], -s[1], s[2]))
+    return [s[3] for s in kept[:n]]
 
 
 class SemanticMap:

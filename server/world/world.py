@@ -102,6 +102,20 @@ class World:
         """The place positions of `location`, in scene order."""
         return [name for loc, name in self.sim.positions if loc == location]
 
+    def furniture_locations(self) -> dict[str, str]:
+        """Each piece of furniture (scene order) and the location it stands at: the location of the
+        place positions it supports, else the location nearest the middle of its parts."""
+        supported = {p.support.split("/")[0]: p.location for p in self.scene.place_positions}
+        out: dict[str, str] = {}
+        for f in self.scene.furniture:
+            if f.name in supported:
+                out[f.name] = supported[f.name]
+            else:
+                x = sum(b.center[0] for b in f.parts) / len(f.parts)
+                y = sum(b.center[1] for b in f.parts) / len(f.parts)
+                out[f.name] = self.map.nearest(x, y)[0]
+        return out
+
     # --- ground truth --------------------------------------------------------------------------
 
     def placement(self, name: str) -> ObjectPlacement:
