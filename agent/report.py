@@ -1,14 +1,19 @@
 """`robocog report`: the paper's tables and figures (and more) from a results file.
 
+- Which protocol produced the results (`paper` or `robocog`, from the rows). A file mixing both is
+  reported with each model once per protocol ("gpt-4.1 (paper)", "gpt-4.1 (robocog)").
+- Errored attempts (the model service or the server failed) first, per model and task; every
+  number after them leaves them out.
 - Success per model and task with Wilson 95% intervals (the paper's Tables I and II).
-- Confusion matrices of believed against actual success (its Fig. 3). A task the agent never
-  ended counts as believed failure (it claimed nothing), and is also counted apart.
-- Success rate and mean tool calls against the memory iteration, with 95% intervals (Figs. 4, 5).
+- Believed against actual success: the paper's Fig. 3 (row percentages of the ground truth,
+  stopped attempts left out) and our counts (a task never ended counts as believed failure).
+- Success and tool calls against the memory iteration: the paper's Figs. 4 (bars) and 5 (boxes),
+  and ours with 95% intervals.
 - pass^k: the chance that k independent trials all succeed, averaged over memory iterations.
 - Tokens, cost and latency per model and task.
 Outputs `report.md` (tables, with the PNG figures embedded), the figures, `summary.json`, and
-`results.csv` in the published implementation's columns. The numbers come from
-`robocog.agent.stats`, the figures from `robocog.agent.figures`.
+`results.csv`: our columns and values, or (`csv="upstream"`) the published implementation's
+encoding. The numbers come from `robocog.agent.stats`, the figures from `robocog.agent.figures`.
 """
 
 from __future__ import annotations
@@ -17,6 +22,7 @@ import csv
 import json
 import math
 from pathlib import Path
+from typing import Literal
 
 from robocog.agent.figures import FigureFiles, draw_figures
 from robocog.agent.stats import (
@@ -24,10 +30,13 @@ from robocog.agent.stats import (
     Cell,
     Confusion,
     IterationPoint,
+    PaperConfusion,
     Summary,
     TableRow,
+    by_protocol,
     confusion,
     mean_interval,
+    paper_confusion,
     pass_hat_k,
     summarise,
     wilson,
@@ -36,25 +45,63 @@ from robocog.shared.evaluation import AttemptRow
 
 # The statistics stay importable from here, where they used to live.
 __all__ = [
+    "UPSTREAM_COLUMNS",
     "Cell",
     "Confusion",
+    "CsvFormat",
     "IterationPoint",
+    "PaperConfusion",
     "Summary",
     "TableRow",
     "confusion",
     "load_rows",
     "markdown",
     "mean_interval",
+    "paper_confusion",
     "pass_hat_k",
     "render",
     "summarise",
+    "upstream_task",
     "wilson",
     "write_csv",
+    "write_upstream_csv",
 ]
 
+#: `results.csv`: ours (booleans, our task ids and trial numbers) or the published encoding.
+CsvFormat = Literal["ours", "upstream"]
 
-def _pct(x: float) -> str:
-    return "n/a" if math.isnan(x) else f"{100 * x:.1f}%"
+UPSTREAM_COLUMNS = (
+    "Model",
+    "Memory",
+    "Task",
+    "Trial",
+    "Invokes",
+    "Toolcalls",
+    "Belief",
+    "Truth",
+    "Accuracy",
+    "Stopped",
+)
+
+#: Our task ids as the published implementation numbers its tasks; any other id is written as it is.
+UPSTREAM_TASKS = {"T1": "1", "T2": "2"}
+
+_PROTOCOLS = {
+    "paper": "the paper's protocol exactly: one conversation from T1 into T2, the environment description in "
+    "every invocation's message, the paper-style system prompt, the scratchpad kept from T1 into T2, top-5 memory "
+    "retrieval",
+    "robocog": "robocog's improved protocol: a fresh conversation per task, the bare task, our system prompt, the "
+    "scratchpad cleared per task, top-3 memory retrieval",
+}
+
+
+def _pct(x: float | None) -> str:
+    return "n/a" if x is None or math.isnan(x) else f"{100 * x:.1f}%"
+
+
+def _cell(text: str) -> str:
+    """Text made safe for a markdown table cell."""
+    return text.replace("|", "\\|").replace("\n", " ")
 
 
 def _md_table(header: list[str], lines: list[list[str]]) -> str:
@@ -63,13 +110,15 @@ def _md_table(header: list[str], lines: list[list[str]]) -> str:
     return "\n".join(out)
 
 
+# --- results.csv -------------------------------------------------------------------------------
+
+
 def write_csv(rows: list[AttemptRow], path: Path) -> None:
-    """The published implementation's columns, so results can be compared with theirs."""
+    """Every attempt (errored ones too) in the published implementation's columns, with our values:
+    booleans, our task ids, trials from 0."""
     with path.open("w", newline="", encoding="utf-8") as f:
         w = csv.writer(f)
-        w.writerow(
-            ["Model", "Memory", "Task", "Trial", "Invokes", "Toolcalls", "Belief", "Truth", "Accuracy", "Stopped"]
-        )
+        w.writerow(UPSTREAM_COLUMNS)
         for r in rows:
             w.writerow(
                 [
@@ -87,7 +136,75 @@ def write_csv(rows: list[AttemptRow], path: Path) -> None:
             )
 
 
+def upstream_task(task: str) -> str:
+    """A task id as the published implementation writes it: T1 -> 1, T2 -> 2, others unchanged."""
+    return UPSTREAM_TASKS.get(task, task)
+
+
+def write_upstream_csv(rows: list[AttemptRow], path: Path) -> int:
+    """The published encoding, so its plotting script can read our rows: 0/1 values, tasks as
+    integers (`upstream_task`), trials from 1, memory iterations from 0, Belief 1 only for an
+    end_task status of success, Accuracy = Belief equals Truth, Stopped 1 for a refusal. Errored
+    attempts are left out (the published code has no such outcome). Returns the rows written."""
+    written = 0
+    with path.open("w", newline="", encoding="utf-8") as f:
+        w = csv.writer(f)
+        w.writerow(UPSTREAM_COLUMNS)
+        for r in rows:
+            if r.outcome == "error":
+                continue
+            belief = int(r.believed_success is True)
+            truth = int(r.true_success)
+            w.writerow(
+                [
+                    r.model,
+                    r.memory_iteration,
+                    upstream_task(r.task),
+                    r.trial + 1,
+                    r.invocations,
+                    r.tool_calls,
+                    belief,
+                    truth,
+                    int(belief == truth),
+                    int(r.outcome == "stopped"),
+                ]
+            )
+            written += 1
+    return written
+
+
 # --- the sections of report.md ------------------------------------------------------------------
+
+
+def _protocol(summary: Summary) -> list[str]:
+    if len(summary.protocols) == 1:
+        (name,) = summary.protocols
+        return [f"**Protocol: `{name}`** — {_PROTOCOLS.get(name, name)}.", ""]
+    parts = ", ".join(f"`{p}` ({n} attempts)" for p, n in summary.protocols.items())
+    return [
+        f"**Protocols: mixed** — {parts}. Each model is reported once per protocol, named "
+        "`model (protocol)`, so the protocols stand side by side in every table and figure.",
+        "",
+    ]
+
+
+def _errored(summary: Summary) -> list[str]:
+    if not summary.errored:
+        return ["No attempt errored: every attempt counts.", ""]
+    lines = [
+        [_cell(e.model), _cell(e.task), str(e.attempts), str(e.errored), f"`{_cell(e.first_error)}`"]
+        for e in summary.errored
+    ]
+    return [
+        "## Errored attempts",
+        "",
+        f"{summary.errored_total} of {summary.attempts} attempts errored: the model service or the server "
+        "failed, which measures the provider, not the model. **Every rate, matrix, pass^k, tool-call mean "
+        "and memory curve below leaves them out.**",
+        "",
+        _md_table(["model", "task", "attempts", "errored", "first error"], lines),
+        "",
+    ]
 
 
 def _success(summary: Summary, task: str) -> list[str]:
@@ -102,7 +219,7 @@ def _success(summary: Summary, task: str) -> list[str]:
     ]
     lines = [
         [
-            r.model,
+            _cell(r.model),
             str(r.executions),
             _pct(r.rate),
             f"{_pct(r.rate_ci[0])} – {_pct(r.rate_ci[1])}",
@@ -115,34 +232,81 @@ def _success(summary: Summary, task: str) -> list[str]:
     return [f"## Success on {task}", "", _md_table(header, lines), ""]
 
 
+def _share(c: PaperConfusion, actual: int, believed: int) -> str:
+    share = c.shares[actual][believed]
+    count = c.counts[actual][believed]
+    return f"n/a ({count})" if share is None else f"{_pct(share)} ({count})"
+
+
 def _belief(summary: Summary, figures: FigureFiles) -> list[str]:
-    header = [
-        "model",
-        "believed ✓ / actual ✓",
-        "believed ✓ / actual ✗ (hallucinated)",
-        "believed ✗ / actual ✓",
-        "believed ✗ / actual ✗",
+    paper_lines = [
+        [
+            _cell(m),
+            str(c.n),
+            _share(c, 0, 0),
+            _share(c, 0, 1),
+            _share(c, 1, 0),
+            _share(c, 1, 1),
+        ]
+        for m, c in summary.paper_confusion.items()
+        if m in summary.reported_models
     ]
-    lines = [[m, str(c.tp), str(c.fp), str(c.fn), str(c.tn)] for m, c in summary.confusion.items()]
+    ours = [
+        [_cell(m), str(c.tp), str(c.fp), str(c.fn), str(c.tn)]
+        for m, c in summary.confusion.items()
+        if m in summary.reported_models
+    ]
     return [
         "## Believed against actual success",
         "",
-        "Rows: what the agent reported with end_task; columns: the world's verdict. A task never ended "
-        "counts as believed failure.",
+        "### As the paper draws it (Fig. 3)",
+        "",
+        "Rows: the world's verdict; columns: what the agent reported with end_task. Each row is normalised "
+        "(the percentage of that row, its count in brackets); T1 and T2 and every memory iteration pooled; "
+        "stopped attempts left out (they reported nothing). A row without attempts shows n/a.",
+        "",
+        f"![the paper's Fig. 3]({figures.paper_confusion})",
+        "",
+        _md_table(
+            [
+                "model",
+                "n",
+                "actual ✗, believed ✗",
+                "actual ✗, believed ✓ (hallucinated)",
+                "actual ✓, believed ✗",
+                "actual ✓, believed ✓",
+            ],
+            paper_lines,
+        ),
+        "",
+        "### Our counts",
+        "",
+        "Rows: what the agent reported with end_task; columns: the world's verdict. Every attempt counts: "
+        "a task never ended counts as believed failure.",
         "",
         f"![confusion matrices]({figures.confusion})",
         "",
-        _md_table(header, lines),
+        _md_table(
+            [
+                "model",
+                "believed ✓ / actual ✓",
+                "believed ✓ / actual ✗ (hallucinated)",
+                "believed ✗ / actual ✓",
+                "believed ✗ / actual ✗",
+            ],
+            ours,
+        ),
         "",
     ]
 
 
 def _memory_line(r: TableRow, p: IterationPoint) -> list[str]:
     return [
-        r.model,
+        _cell(r.model),
         r.task,
         str(p.memory_iteration),
         str(p.n),
+        str(p.stopped),
         f"{_pct(p.rate)} ({_pct(p.rate_ci[0])} – {_pct(p.rate_ci[1])})",
         f"{p.tool_calls:.1f} ({p.tool_calls_ci[0]:.1f} – {p.tool_calls_ci[1]:.1f})",
     ]
@@ -153,18 +317,36 @@ def _memory(summary: Summary, figures: FigureFiles) -> list[str]:
     return [
         "## Memory",
         "",
+        "### As the paper draws it (Figs. 4 and 5)",
+        "",
+        "Success in percent per task and memory iteration (stopped attempts count as failures), and the "
+        "tool calls of the attempts that ended (stopped ones left out).",
+        "",
+        f"![the paper's Fig. 4]({figures.paper_success})",
+        "",
+        f"![the paper's Fig. 5]({figures.paper_tool_calls})",
+        "",
+        "### Ours, with 95% intervals",
+        "",
+        "Every counted attempt, stopped ones included; intervals clipped to the valid range.",
+        "",
         f"![success against memory iteration]({figures.rate})",
         "",
         f"![tool calls against memory iteration]({figures.tool_calls})",
         "",
-        _md_table(["model", "task", "memory iteration", "n", "success (95% CI)", "tool calls (95% CI)"], lines),
+        _md_table(
+            ["model", "task", "memory iteration", "n", "stopped", "success (95% CI)", "tool calls (95% CI)"], lines
+        ),
         "",
     ]
 
 
 def _consistency(summary: Summary) -> list[str]:
     ks = [k for k in PASS_KS if any(k in r.pass_hat for r in summary.table)]
-    lines = [[r.model, r.task, *[_pct(r.pass_hat[k]) if k in r.pass_hat else "n/a" for k in ks]] for r in summary.table]
+    lines = [
+        [_cell(r.model), r.task, *[_pct(r.pass_hat[k]) if k in r.pass_hat else "n/a" for k in ks]]
+        for r in summary.table
+    ]
     return [
         "## Consistency across trials (pass^k)",
         "",
@@ -175,7 +357,7 @@ def _consistency(summary: Summary) -> list[str]:
     ]
 
 
-def _cost(summary: Summary) -> list[str]:
+def _cost(summary: Summary, csv_format: CsvFormat) -> list[str]:
     header = [
         "model",
         "task",
@@ -188,7 +370,7 @@ def _cost(summary: Summary) -> list[str]:
     ]
     lines = [
         [
-            r.model,
+            _cell(r.model),
             r.task,
             f"{r.tool_calls:.1f}",
             f"{r.tokens_in:.0f}",
@@ -199,45 +381,68 @@ def _cost(summary: Summary) -> list[str]:
         ]
         for r in summary.table
     ]
+    csv_note = (
+        "`results.csv` has the counted attempts in the published implementation's encoding (0/1 values, "
+        "tasks T1 → 1 and T2 → 2, trials from 1; errored attempts left out)"
+        if csv_format == "upstream"
+        else "`results.csv` has every attempt in the published implementation's columns, with our values"
+    )
     return [
         "## Cost",
         "",
         _md_table(header, lines),
         "",
-        "Means per attempt unless noted. `results.csv` has every attempt in the published implementation's "
-        "columns; `summary.json` has every number above.",
+        f"Means per attempt unless noted (errored attempts left out). {csv_note}; `summary.json` has every "
+        "number above.",
         "",
     ]
 
 
-def markdown(summary: Summary, figures: FigureFiles, *, title: str) -> str:
-    """The text of report.md."""
-    parts = [
-        f"# {title}",
-        "",
-        f"{summary.attempts} attempts; models: {', '.join(summary.models)}; tasks: {', '.join(summary.tasks)}.",
+def markdown(summary: Summary, figures: FigureFiles | None, *, title: str, csv_format: CsvFormat = "ours") -> str:
+    """The text of report.md (`figures` is None when no attempt counts: then only the errors)."""
+    parts = [f"# {title}", ""]
+    parts += _protocol(summary)
+    parts += _errored(summary)
+    parts += [
+        f"{summary.attempts} attempts ({summary.counted} counted, {summary.errored_total} errored); "
+        f"models: {', '.join(summary.models)}; tasks: {', '.join(summary.tasks)}.",
         "",
     ]
+    if figures is None or not summary.table:
+        parts += ["Every attempt errored: there is nothing to measure.", ""]
+        return "\n".join(parts)
     for t in summary.tasks:
-        parts += _success(summary, t)
+        if summary.rows_for(t):
+            parts += _success(summary, t)
     parts += _belief(summary, figures)
     parts += _memory(summary, figures)
     parts += _consistency(summary)
-    parts += _cost(summary)
+    parts += _cost(summary, csv_format)
     return "\n".join(parts)
 
 
-def render(rows: list[AttemptRow], out: Path, *, title: str = "robocog evaluation") -> Path:
-    """Write report.md, the figures, summary.json and results.csv into `out`; returns report.md."""
+def render(
+    rows: list[AttemptRow],
+    out: Path,
+    *,
+    title: str = "robocog evaluation",
+    csv_format: CsvFormat = "ours",
+) -> Path:
+    """Write report.md, the figures, summary.json and results.csv into `out`; returns report.md.
+    Rows of several protocols are reported per protocol (`by_protocol`)."""
     if not rows:
         raise ValueError("the results file holds no attempts")
+    rows = by_protocol(rows)
     out.mkdir(parents=True, exist_ok=True)
     summary = summarise(rows)
     (out / "summary.json").write_text(json.dumps(summary.as_json(), indent=2), encoding="utf-8")
-    write_csv(rows, out / "results.csv")
-    figures = draw_figures(summary, out)
+    if csv_format == "upstream":
+        write_upstream_csv(rows, out / "results.csv")
+    else:
+        write_csv(rows, out / "results.csv")
+    figures = draw_figures(summary, out) if summary.table else None
     report = out / "report.md"
-    report.write_text(markdown(summary, figures, title=title), encoding="utf-8")
+    report.write_text(markdown(summary, figures, title=title, csv_format=csv_format), encoding="utf-8")
     return report
 
 

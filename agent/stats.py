@@ -1,10 +1,15 @@
 """The statistics of a study, as typed data: intervals, pass^k, confusion, and `summarise`.
 
-- Wilson 95% intervals for success rates; Student's t 95% intervals for means.
+- Attempts whose outcome is "error" (the model service or the server failed) measure the provider,
+  not the model: every statistic leaves them out, and `Summary.errored` counts them per model and task.
+- Wilson 95% intervals for success rates; Student's t 95% intervals for means, clipped at 0 for
+  tool calls (a count is never negative).
 - pass^k: the chance that k independent trials all succeed, C(c, k) / C(n, k) over the n trials
   at each memory iteration, averaged over iterations.
-- Confusion of believed against actual success. A task the agent never ended counts as believed
-  failure (it claimed nothing).
+- Confusion of believed against actual success, two ways: ours counts every attempt (a task the
+  agent never ended counts as believed failure: it claimed nothing); the paper's (its Fig. 3) leaves
+  stopped attempts out and normalises each row of the ground truth.
+- Results of two protocols in one file: `by_protocol` names each model once per protocol.
 
 `Summary.as_json()` is what `summary.json` holds.
 """
@@ -115,7 +120,7 @@ class Cell:
             successes=sum(r.true_success for r in rows),
             believed=sum(r.believed_success is True for r in rows),
             agreements=sum(r.agreement for r in rows),
-            stopped=sum(r.stopped for r in rows),
+            stopped=sum(r.outcome == "stopped" for r in rows),
             tool_calls=mean(r.tool_calls for r in rows),
             tokens_in=mean(r.tokens_in for r in rows),
             tokens_out=mean(r.tokens_out for r in rows),
@@ -154,22 +159,81 @@ def confusion(rows: list[AttemptRow]) -> Confusion:
     return Confusion(**counts)
 
 
+# A row of the paper's confusion matrix: (believed failure, believed success).
+PairCounts = tuple[int, int]
+PairShares = tuple[float | None, float | None]
+
+
+@dataclass(frozen=True)
+class PaperConfusion:
+    """The paper's Fig. 3 for one model: rows are the ground truth (failure, success), columns the
+    belief (failure, success); tasks and memory iterations pooled; stopped (and errored) attempts
+    left out. `shares` normalises each row; a row without attempts has no shares (None)."""
+
+    failure: PairCounts  # actual failure: believed failure, believed success (hallucinated)
+    success: PairCounts  # actual success: believed failure, believed success
+
+    @property
+    def counts(self) -> tuple[PairCounts, PairCounts]:
+        return (self.failure, self.success)
+
+    @property
+    def n(self) -> int:
+        return sum(self.failure) + sum(self.success)
+
+    @staticmethod
+    def _shares(row: PairCounts) -> PairShares:
+        total = sum(row)
+        if total == 0:
+            return (None, None)
+        return (row[0] / total, row[1] / total)
+
+    @property
+    def shares(self) -> tuple[PairShares, PairShares]:
+        """Row-normalised fractions (0..1), rows and columns as `counts`."""
+        return (self._shares(self.failure), self._shares(self.success))
+
+    def as_json(self) -> dict[str, Any]:
+        return {
+            "rows": ["actual failure", "actual success"],
+            "columns": ["believed failure", "believed success"],
+            "counts": [list(r) for r in self.counts],
+            "row_shares": [list(r) for r in self.shares],
+            "n": self.n,
+        }
+
+
+def paper_confusion(rows: list[AttemptRow]) -> PaperConfusion:
+    """The paper's Fig. 3 from counted attempts: stopped ones are left out; belief is end_task's
+    status being success."""
+    counts = [[0, 0], [0, 0]]
+    for r in rows:
+        if r.outcome != "ended":
+            continue
+        counts[int(r.true_success)][int(r.believed_success is True)] += 1
+    return PaperConfusion(failure=(counts[0][0], counts[0][1]), success=(counts[1][0], counts[1][1]))
+
+
 @dataclass(frozen=True)
 class IterationPoint:
-    """One model, task and memory iteration: success rate and tool calls with 95% intervals."""
+    """One model, task and memory iteration: success rate (stopped attempts included, as failures)
+    and tool calls with 95% intervals, and the tool calls of the attempts that ended (the paper's
+    Fig. 5 leaves stopped ones out)."""
 
     memory_iteration: int
     n: int
     successes: int
+    stopped: int
     rate: float
     rate_ci: Interval
     tool_calls: float
     tool_calls_ci: Interval
+    ended_tool_calls: tuple[int, ...]
 
 
 @dataclass(frozen=True)
 class TableRow:
-    """One model on one task, over every trial and memory iteration."""
+    """One model on one task, over every trial and memory iteration (errored attempts left out)."""
 
     model: str
     task: str
@@ -199,20 +263,63 @@ class TableRow:
         out["by_memory_iteration"] = points
         return out
 
+    def point(self, memory_iteration: int) -> IterationPoint | None:
+        """The point of one memory iteration, if the task ran at it."""
+        return next((p for p in self.by_memory_iteration if p.memory_iteration == memory_iteration), None)
+
+
+#: How long an error message may be in the report's table.
+ERROR_CHARS = 90
+
+
+def shorten(message: str, limit: int = ERROR_CHARS) -> str:
+    """The first line of a message, cut to `limit` characters with an ellipsis."""
+    first = message.strip().splitlines()[0] if message.strip() else ""
+    return first if len(first) <= limit else first[: limit - 1].rstrip() + "…"
+
+
+@dataclass(frozen=True)
+class Errored:
+    """The errored attempts of one model on one task."""
+
+    model: str
+    task: str
+    attempts: int  # every attempt, errored ones included
+    errored: int
+    first_error: str  # the first errored attempt's message, shortened
+
 
 @dataclass(frozen=True)
 class Summary:
-    """Every number the report shows."""
+    """Every number the report shows. `attempts` counts every row; the statistics use the
+    `counted` ones (outcome ended or stopped)."""
 
     models: tuple[str, ...]
     tasks: tuple[str, ...]
     attempts: int
+    counted: int
+    protocols: dict[str, int]  # protocol -> attempts, in order of first appearance
+    errored: tuple[Errored, ...]  # only the model and task pairs with an errored attempt
     table: tuple[TableRow, ...]
-    confusion: dict[str, Confusion]  # per model, over every task
+    confusion: dict[str, Confusion]  # per model, over every task (ours: every counted attempt)
+    paper_confusion: dict[str, PaperConfusion]  # per model, the paper's Fig. 3
+    memory_iterations: tuple[int, ...]  # every memory iteration some counted attempt ran at
 
     def rows_for(self, task: str) -> list[TableRow]:
         """The table's rows of one task, in model order."""
         return [r for r in self.table if r.task == task]
+
+    def row(self, model: str, task: str) -> TableRow | None:
+        return next((r for r in self.table if (r.model, r.task) == (model, task)), None)
+
+    @property
+    def reported_models(self) -> tuple[str, ...]:
+        """The models with at least one counted attempt (the figures' panels)."""
+        return tuple(m for m in self.models if any(r.model == m for r in self.table))
+
+    @property
+    def errored_total(self) -> int:
+        return sum(e.errored for e in self.errored)
 
     def as_json(self) -> dict[str, Any]:
         """What `summary.json` holds."""
@@ -220,13 +327,26 @@ class Summary:
             "models": list(self.models),
             "tasks": list(self.tasks),
             "attempts": self.attempts,
+            "counted": self.counted,
+            "errored_total": self.errored_total,
+            "protocols": dict(self.protocols),
+            "errored": [asdict(e) for e in self.errored],
             "table": [r.as_json() for r in self.table],
             "confusion": {m: asdict(c) for m, c in self.confusion.items()},
+            "paper_confusion": {m: c.as_json() for m, c in self.paper_confusion.items()},
         }
 
 
 def _order(values: list[str]) -> tuple[str, ...]:
     return tuple(dict.fromkeys(values))
+
+
+def by_protocol(rows: list[AttemptRow]) -> list[AttemptRow]:
+    """Rows of one protocol unchanged; rows of several get the protocol in the model's name
+    ("gpt-4.1 (paper)"), so every table and figure sets the protocols side by side."""
+    if len({r.protocol for r in rows}) < 2:
+        return rows
+    return [r.model_copy(update={"model": f"{r.model} ({r.protocol})"}) for r in rows]
 
 
 def _point(iteration: int, rows: list[AttemptRow]) -> IterationPoint:
@@ -236,10 +356,12 @@ def _point(iteration: int, rows: list[AttemptRow]) -> IterationPoint:
         memory_iteration=iteration,
         n=len(rows),
         successes=s,
+        stopped=sum(r.outcome == "stopped" for r in rows),
         rate=s / len(rows),
         rate_ci=wilson(s, len(rows)),
         tool_calls=tm,
-        tool_calls_ci=(tlo, thi),
+        tool_calls_ci=(max(0.0, tlo), thi),
+        ended_tool_calls=tuple(r.tool_calls for r in rows if r.outcome == "ended"),
     )
 
 
@@ -277,17 +399,46 @@ def _table_row(model: str, task: str, rows: list[AttemptRow], by_iter: dict[int,
     )
 
 
+def _errored(models: tuple[str, ...], tasks: tuple[str, ...], rows: list[AttemptRow]) -> tuple[Errored, ...]:
+    out = []
+    for m in models:
+        for t in tasks:
+            mine = [r for r in rows if (r.model, r.task) == (m, t)]
+            failed = [r for r in mine if r.outcome == "error"]
+            if failed:
+                first = failed[0].error or "(no message recorded)"
+                out.append(
+                    Errored(model=m, task=t, attempts=len(mine), errored=len(failed), first_error=shorten(first))
+                )
+    return tuple(out)
+
+
 def summarise(rows: list[AttemptRow]) -> Summary:
-    """Every number the report shows, as data (models and tasks in order of first appearance)."""
+    """Every number the report shows, as data (models and tasks in order of first appearance).
+    Errored attempts are counted apart and left out of every statistic."""
     models = _order([r.model for r in rows])
     tasks = _order([r.task for r in rows])
+    counted = [r for r in rows if r.outcome != "error"]
     groups: dict[tuple[str, str], list[AttemptRow]] = defaultdict(list)
     by_iter: dict[tuple[str, str], dict[int, list[AttemptRow]]] = defaultdict(lambda: defaultdict(list))
-    for r in rows:
+    for r in counted:
         groups[(r.model, r.task)].append(r)
         by_iter[(r.model, r.task)][r.memory_iteration].append(r)
     table = tuple(
         _table_row(m, t, groups[(m, t)], by_iter[(m, t)]) for m in models for t in tasks if groups.get((m, t))
     )
-    overall = {m: confusion([r for r in rows if r.model == m]) for m in models}
-    return Summary(models=models, tasks=tasks, attempts=len(rows), table=table, confusion=overall)
+    protocols: dict[str, int] = {}
+    for r in rows:
+        protocols[r.protocol] = protocols.get(r.protocol, 0) + 1
+    return Summary(
+        models=models,
+        tasks=tasks,
+        attempts=len(rows),
+        counted=len(counted),
+        protocols=protocols,
+        errored=_errored(models, tasks, rows),
+        table=table,
+        confusion={m: confusion([r for r in counted if r.model == m]) for m in models},
+        paper_confusion={m: paper_confusion([r for r in counted if r.model == m]) for m in models},
+        memory_iterations=tuple(sorted({r.memory_iteration for r in counted})),
+    )
