@@ -119,10 +119,41 @@ def _parse_json(text: Any) -> dict[str, Any] | None:
     return value if isinstance(value, dict) else None
 
 
+_TASK_TAG = re.compile(r"<task>(.*?)</task>", re.S)
+_REMINDER = re.compile(r"The task is not finished: .*? The task is: (.*)\n", re.S)
+
+
+def _plain(content: Any) -> str:
+    if isinstance(content, list):  # content blocks
+        return "".join(str(b.get("text", "")) for b in content if isinstance(b, dict))
+    return str(content or "")
+
+
+def task_of(message: str) -> str:
+    """The task a user message gives: the `<task>` block of the paper's message (which carries the
+    environment description), the task a reminder restates, or the whole message."""
+    tagged = _TASK_TAG.findall(message)
+    if tagged:
+        return str(tagged[-1]).strip()
+    reminder = _REMINDER.search(message)
+    if reminder:
+        return reminder.group(1).strip()
+    return message.strip()
+
+
 def read_history(messages: list[Any]) -> History:
     """The task, every tool call with its result, and the memories found, from the conversation."""
     msgs = [as_dict(m) for m in messages]
-    task = next((str(m.get("content") or "") for m in msgs if m.get("role") == "user"), "")
+    asked = [(i, task_of(_plain(m.get("content")))) for i, m in enumerate(msgs) if m.get("role") == "user"]
+    task = asked[-1][1] if asked else ""
+    # The current task began at the first of the trailing user messages that carry it: a conversation
+    # may hold earlier tasks (the paper's protocol runs T2 after T1 in one conversation).
+    begin = 0
+    for i, asked_task in reversed(asked):
+        if asked_task != task:
+            break
+        begin = i
+    msgs = msgs[begin:]
     results: dict[Any, Any] = {m.get("tool_call_id"): m.get("content") for m in msgs if m.get("role") == "tool"}
     calls: list[PastCall] = []
     memories: list[dict[str, Any]] = []

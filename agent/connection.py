@@ -64,6 +64,17 @@ class Robot:
     label: str
     requires: dict[str, list[str]] = field(default_factory=dict)  # task id -> tasks that must succeed first
 
+    _prompts: dict[str, str] = field(default_factory=dict)
+
+    async def prompt(self, name: str) -> str:
+        """The text of the server's prompt `name` (fetched once); `robot_system` is fetched at connect."""
+        if name == "robot_system":
+            return self.system_prompt
+        if name not in self._prompts:
+            result = await self.client.get_prompt(name)
+            self._prompts[name] = "\n".join(getattr(m.content, "text", "") for m in result.messages)
+        return self._prompts[name]
+
     @property
     def can_check(self) -> bool:
         return any(t.name == "check_task" for t in self.tools)

@@ -3,22 +3,29 @@
 For each model and trial (a *unit*): memory iteration 0 starts with an empty memory and later
 iterations keep what earlier ones stored; each iteration resets the world and runs the tasks in
 order, each only if every task it `requires` (from the server's task catalogue) truly succeeded
-earlier in the same iteration (T2 after T1); a task without requirements always runs. A task
-never ended within the invocation limit is a refusal. Ground truth comes from the server's
-`check_task` after the attempt.
+earlier in the same iteration (T2 after T1); a task without requirements always runs. Each task
+begins its own episode on the server (`begin_task`), so its verdict is judged against the world
+at its start and written into its own memory record. A task never ended within the invocation
+limit is a refusal (`stopped`); a failing model service or server is an `error`, never a refusal.
+Ground truth comes from the server's `check_task` after the attempt. The protocol (`paper` or
+`robocog`, see `robocog.agent.protocols`) decides the conversation, the messages, the system
+prompt, the scratchpad's carry-over and the retrieval depth.
 
 Each worker owns one server process (eval profile) with its own data directory, and clears the
 memory between units, so trials never share memory except across the iterations of one trial.
 Every attempt is appended to the results file as soon as it finishes. `--resume` keeps the units
-already complete, drops the rows of a unit that was cut off, and runs that unit again from scratch.
+already complete, drops the rows of a unit that was cut off or has an errored attempt, and runs
+that unit again from scratch; a torn last line (a crash mid-write) is dropped with a warning.
 """
 
 from __future__ import annotations
 
 import asyncio
 import hashlib
+import os
 import re
 import shutil
+import sys
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -26,6 +33,7 @@ from typing import Any
 
 from robocog.agent.connection import Robot, ServerSpec, connect, leaf_message
 from robocog.agent.loop import AgentSettings, finish, run_episode, warm_up_litellm
+from robocog.agent.protocols import PROTOCOLS, EvalProtocol
 from robocog.agent.trace import Trace
 from robocog.shared import __version__
 from robocog.shared.errors import ConfigError, ServerConnectionError
@@ -54,10 +62,16 @@ def read_rows(path: Path) -> list[AttemptRow]:
     """The attempts of a results file, in order (none when it does not exist)."""
     if not path.exists():
         return []
+    lines = [line for line in path.read_text(encoding="utf-8", errors="replace").splitlines() if line.strip()]
     rows = []
-    for line in path.read_text(encoding="utf-8").splitlines():
-        if line.strip():
+    for number, line in enumerate(lines, 1):
+        try:
             rows.append(AttemptRow.model_validate_json(line))
+        except ValueError as exc:
+            if number == len(lines):  # a crash while the last row was written: that attempt reruns
+                print(f"robocog: {path}: dropping a torn last line ({number})", file=sys.stderr)
+                break
+            raise ConfigError(f"{path}: line {number} is not a result row: {exc.__class__.__name__}") from exc
     return rows
 
 
@@ -66,14 +80,16 @@ def runnable(task_id: str, succeeded: set[str], requires: Requirements) -> bool:
     return all(r in succeeded for r in requires.get(task_id, ()))
 
 
-def broke_off(row: AttemptRow) -> bool:
-    """Whether the server died during the attempt (the rest of its iteration was not run)."""
-    return (row.error or "").startswith(SERVER_FAILURE)
+def errored(rows: list[AttemptRow]) -> list[AttemptRow]:
+    """The attempts that a failing model service or server cut short (outcome "error")."""
+    return [r for r in rows if r.outcome == "error"]
 
 
 def unit_complete(rows: list[AttemptRow], config: EvalConfig, requires: Requirements) -> bool:
-    """A unit is complete when its last memory iteration has closed: every task ran, or was skipped
-    because a task it requires failed, or the server died (the iteration ends there)."""
+    """A unit is complete when no attempt of it errored and its last memory iteration has closed:
+    every task ran, or was skipped because a task it requires failed."""
+    if errored(rows):
+        return False
     last = iter([r for r in rows if r.memory_iteration == config.memory_iterations - 1])  # in run order
     succeeded: set[str] = set()
     for task_id in config.tasks:
@@ -82,8 +98,6 @@ def unit_complete(rows: list[AttemptRow], config: EvalConfig, requires: Requirem
         row = next(last, None)
         if row is None or row.task != task_id:  # not run yet (or not by these rules: run it again)
             return False
-        if broke_off(row):
-            return True
         if row.true_success:
             succeeded.add(task_id)
     return True
@@ -97,11 +111,17 @@ class Progress:
     done: int = 0
     successes: int = 0
     attempts: int = 0
+    errors: int = 0
     on_change: Callable[[Progress], None] | None = None
+    on_error: Callable[[AttemptRow], None] | None = None
 
     def advance(self, n: int = 1, row: AttemptRow | None = None) -> None:
         self.done += n
-        if row is not None:
+        if row is not None and row.outcome == "error":
+            self.errors += 1
+            if self.on_error is not None:
+                self.on_error(row)
+        elif row is not None:
             self.attempts += 1
             self.successes += int(row.true_success)
         if self.on_change is not None:
@@ -141,24 +161,38 @@ class Runner:
 
     async def run_unit(self, robot: Robot, spec: ModelSpec, trial: int, start_iteration: int) -> int | None:
         """Run the unit from `start_iteration`; returns the iteration to continue from if the server broke."""
-        cfg = self.config
+        cfg, protocol = self.config, self.protocol
         seed = cfg.seed + trial
         if start_iteration == 0:
             await robot.client.call_tool("clear_memory", {})
         for iteration in range(start_iteration, cfg.memory_iterations):
-            await _control(robot, "reset_world", seed=seed, randomize=cfg.randomize, memory_labels=cfg.memory_labels)
+            await _control(
+                robot,
+                "reset_world",
+                seed=seed,
+                randomize=cfg.randomize,
+                memory_labels=cfg.memory_labels,
+                search_k=protocol.search_k,
+            )
+            conversation: list[dict[str, Any]] = []  # the paper: one conversation per memory iteration
             succeeded: set[str] = set()
             for index, task_id in enumerate(cfg.tasks):
                 if not runnable(task_id, succeeded, robot.requires):
                     self.progress.advance()  # skipped: a task it requires failed (no row)
                     continue
+                messages = conversation if protocol.continue_conversation else []
                 try:
-                    row = await self.attempt(robot, spec, trial, iteration, task_id)
+                    await _control(robot, "begin_task", task_id=task_id, keep_scratchpad=protocol.keep_scratchpad)
+                    row = await self.attempt(robot, spec, trial, iteration, task_id, messages)
                 except ServerBroke as broke:
                     await self.write(broke.row)
                     self.progress.advance(len(cfg.tasks) - index - 1)
                     return iteration + 1
                 await self.write(row)
+                if row.outcome == "error":  # the model service failed: the unit stops; --resume reruns it
+                    later = (cfg.memory_iterations - iteration - 1) * len(cfg.tasks)
+                    self.progress.advance(len(cfg.tasks) - index - 1 + later)
+                    return None
                 if row.true_success:
                     succeeded.add(task_id)
         return None
@@ -168,7 +202,20 @@ class Runner:
         async with connect(self.spec(0)) as robot:
             return robot.requires
 
-    async def attempt(self, robot: Robot, spec: ModelSpec, trial: int, iteration: int, task_id: str) -> AttemptRow:
+    @property
+    def protocol(self) -> EvalProtocol:
+        return PROTOCOLS[self.config.protocol]
+
+    async def attempt(
+        self,
+        robot: Robot,
+        spec: ModelSpec,
+        trial: int,
+        iteration: int,
+        task_id: str,
+        conversation: list[dict[str, Any]],
+    ) -> AttemptRow:
+        """One task attempt, continuing `conversation` (empty: a new one)."""
         cfg = self.config
         prompt = robot.tasks.get(task_id)
         if prompt is None:
@@ -182,6 +229,7 @@ class Runner:
             max_steps=cfg.max_steps,
             timeout_s=cfg.timeout_s,
             api_base=spec.api_base,
+            api_key=spec.api_key or (os.environ.get(spec.api_key_env) if spec.api_key_env else None),
             seed=model_seed(cfg.seed, trial, iteration, task_id),
             params=dict(spec.params),
         )
@@ -192,6 +240,7 @@ class Runner:
             "task": task_id,
             "seed": cfg.seed + trial,
             "memory_labels": cfg.memory_labels,
+            "protocol": cfg.protocol,
             "trace": str(trace_path.relative_to(self.out.parent)),
             "version": __version__,
             "study": cfg.name,
@@ -199,7 +248,14 @@ class Runner:
         }
         try:
             result = await run_episode(
-                robot.client, prompt, settings, trace, system_prompt=robot.system_prompt, tools=robot.tools
+                robot.client,
+                prompt,
+                settings,
+                trace,
+                system_prompt=await robot.prompt(self.protocol.system_prompt),
+                tools=robot.tools,
+                protocol=self.protocol,
+                conversation=conversation,
             )
             checked = await _control(robot, "check_task", task_id=task_id)
         except Exception as exc:  # the server or the transport died: this attempt fails, not the study
@@ -207,12 +263,13 @@ class Runner:
             raise ServerBroke(
                 AttemptRow(
                     **base,
+                    outcome="error",
                     invocations=0,
                     tool_calls=0,
                     believed_success=None,
                     true_success=False,
                     agreement=False,
-                    stopped=True,
+                    stopped=False,
                     tokens_in=0,
                     tokens_out=0,
                     cost=None,
@@ -227,6 +284,7 @@ class Runner:
         believed = result.believed_success
         return AttemptRow(
             **base,
+            outcome=result.outcome,
             invocations=result.invocations,
             tool_calls=result.tool_calls,
             believed_success=believed,
@@ -305,6 +363,7 @@ async def run_eval(
     resume: bool = False,
     server_command: list[str] | None = None,
     on_progress: Callable[[Progress], None] | None = None,
+    on_error: Callable[[AttemptRow], None] | None = None,
 ) -> list[AttemptRow]:
     """Run the study; returns every row of the results file."""
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -315,7 +374,7 @@ async def run_eval(
     # Which units are complete depends on the tasks' requirements: only the server knows them.
     pending = plan_units(config, out, rows, await runner.requirements() if rows else {})
     per_unit = config.memory_iterations * len(config.tasks)
-    runner.progress = Progress(total=len(pending) * per_unit, on_change=on_progress)
+    runner.progress = Progress(total=len(pending) * per_unit, on_change=on_progress, on_error=on_error)
     queue: asyncio.Queue[tuple[ModelSpec, int, int]] = asyncio.Queue()
     for unit in pending:
         queue.put_nowait(unit)
@@ -337,6 +396,10 @@ def summary_line(rows: list[AttemptRow]) -> str:
         by.setdefault((r.model, r.task), []).append(r)
     parts = []
     for (model, task), group in sorted(by.items()):
-        wins = sum(r.true_success for r in group)
-        parts.append(f"{model} {task}: {wins}/{len(group)} true successes")
+        counted = [r for r in group if r.outcome != "error"]
+        wins = sum(r.true_success for r in counted)
+        failed = len(group) - len(counted)
+        parts.append(
+            f"{model} {task}: {wins}/{len(counted)} true successes" + (f" ({failed} errored)" if failed else "")
+        )
     return "; ".join(parts)

@@ -3,7 +3,8 @@
 The client talks to the robot only through MCP. Each model turn may carry several tool calls,
 executed in order; their results go back to the model. When the model stops without calling
 end_task it is re-invoked with the task restated (the paper's protocol), up to `max_invocations`;
-a task that is never ended is recorded as stopped (a refusal).
+a task that is never ended is recorded as stopped (a refusal); a failing model service or server is
+an error, never a refusal. What the messages say is the protocol's (see `robocog.agent.protocols`).
 """
 
 from __future__ import annotations
@@ -11,7 +12,7 @@ from __future__ import annotations
 import json
 import time
 from dataclasses import dataclass, field
-from typing import Any, cast
+from typing import Any, Literal, cast
 
 from mcp import Client
 from mcp_types import RequestParamsMeta, Tool
@@ -19,6 +20,7 @@ from mcp_types import RequestParamsMeta, Tool
 from robocog.agent.model import assistant_message, complete, usage
 from robocog.agent.model import check_credentials as check_credentials  # re-exported for callers
 from robocog.agent.model import warm_up_litellm as warm_up_litellm  # re-exported for callers
+from robocog.agent.protocols import DESCRIPTION_URI, PROTOCOLS, EvalProtocol
 from robocog.agent.trace import Trace
 from robocog.shared.errors import ModelServiceError, ServerConnectionError
 from robocog.shared.protocol import CONTROL_TOOLS, MODEL_META_KEY
@@ -34,15 +36,23 @@ class AgentSettings:
     retries: int = 4
     backoff_s: float = 2.0
     api_base: str | None = None
+    api_key: str | None = None
     seed: int | None = None
     temperature: float | None = None
     params: dict[str, Any] = field(default_factory=dict)
 
 
+Outcome = Literal["ended", "stopped", "error"]
+
+
 @dataclass
 class EpisodeResult:
+    """How one task attempt went. `outcome`: the agent called end_task (`ended`), never did within
+    the invocations (`stopped`: the paper's refusal), or the model service or the server failed
+    (`error`, never a refusal)."""
+
     task: str
-    ended: bool
+    outcome: Outcome
     believed_success: bool | None
     invocations: int
     tool_calls: int
@@ -55,8 +65,12 @@ class EpisodeResult:
     error: str | None = None
 
     @property
+    def ended(self) -> bool:
+        return self.outcome == "ended"
+
+    @property
     def stopped(self) -> bool:
-        return not self.ended
+        return self.outcome == "stopped"
 
 
 def function_definitions(tools: list[Tool]) -> list[dict[str, Any]]:
@@ -75,13 +89,6 @@ def function_definitions(tools: list[Tool]) -> list[dict[str, Any]]:
     ]
 
 
-def reminder(task: str) -> str:
-    return (
-        f"The task is not finished: you have not called end_task yet. The task is: {task}\n"
-        "Act with your tools to complete it, or call end_task with an honest status and a summary."
-    )
-
-
 def _text(result: Any) -> str:
     parts = [getattr(block, "text", "") for block in result.content]
     return "\n".join(p for p in parts if p) or json.dumps(result.structured_content)
@@ -96,17 +103,31 @@ async def run_episode(
     system_prompt: str,
     tools: list[Tool],
     server_label: str = "",
+    protocol: EvalProtocol = PROTOCOLS["robocog"],
+    conversation: list[dict[str, Any]] | None = None,
 ) -> EpisodeResult:
-    """Run one task to its end (or to the invocation limit) and return how it went."""
+    """Run one task to its end (or to the invocation limit) and return how it went.
+
+    `conversation` is the message list to continue (the paper's protocol runs T2 after T1 in one
+    conversation); it is extended in place, and an empty one starts with the system prompt.
+    """
     started = time.monotonic()
     definitions = function_definitions(tools)
     names = {d["function"]["name"] for d in definitions}
     trace.emit(
         RunStarted(
-            t=trace.now(), task=task, model=settings.model, server=server_label, tools=sorted(names), seed=settings.seed
+            t=trace.now(),
+            task=task,
+            model=settings.model,
+            server=server_label,
+            tools=sorted(names),
+            seed=settings.seed,
+            protocol=protocol.name,
         )
     )
-    messages: list[dict[str, Any]] = [{"role": "system", "content": system_prompt}, {"role": "user", "content": task}]
+    messages = conversation if conversation is not None else []
+    if not messages:
+        messages.append({"role": "system", "content": system_prompt})
     ended = False
     believed: bool | None = None
     summary: str | None = None
@@ -118,16 +139,19 @@ async def run_episode(
     try:
         while invocation < settings.max_invocations and not ended:
             invocation += 1
-            if invocation > 1:
+            description = await _describe(client) if protocol.describe_environment else None
+            if invocation == 1:
+                messages.append({"role": "user", "content": protocol.first_message(task, description)})
+            else:
                 trace.emit(Reinvoked(t=trace.now(), invocation=invocation, reason="the model stopped without end_task"))
-                messages.append({"role": "user", "content": reminder(task)})
+                messages.append({"role": "user", "content": protocol.reinvocation_message(task, description)})
             for step in range(1, settings.max_steps + 1):
                 t0 = time.monotonic()
                 response = await complete(settings, messages, definitions)
                 latency = time.monotonic() - t0
                 llm_latency += latency
                 message = assistant_message(response)
-                messages.append(message)
+                messages.append(_sendable(message))
                 t_in, t_out, c = usage(response)
                 tokens_in, tokens_out = tokens_in + t_in, tokens_out + t_out
                 if c is not None:
@@ -148,18 +172,22 @@ async def run_episode(
                 if not calls:
                     break
                 for call in calls:
-                    tool_calls += 1
-                    done, content = await _execute(client, call, names, settings, trace, invocation)
+                    if ended:  # after end_task nothing more runs: it would begin the next episode
+                        content = "Not run: the task was ended with end_task."
+                    else:
+                        tool_calls += 1
+                        done, content = await _execute(client, call, names, settings, trace, invocation)
+                        if done is not None:
+                            ended, believed, summary = True, done[0], done[1]
                     messages.append({"role": "tool", "tool_call_id": call["id"], "content": content})
-                    if done is not None:
-                        ended, believed, summary = True, done[0], done[1]
                 if ended:
                     break
     except (ModelServiceError, ServerConnectionError) as exc:
-        error = str(exc)
-    result = EpisodeResult(
+        error = f"{type(exc).__name__}: {exc}"
+    outcome: Outcome = "error" if error is not None else ("ended" if ended else "stopped")
+    return EpisodeResult(
         task=task,
-        ended=ended,
+        outcome=outcome,
         believed_success=believed,
         invocations=invocation,
         tool_calls=tool_calls,
@@ -171,7 +199,33 @@ async def run_episode(
         summary=summary,
         error=error,
     )
-    return result
+
+
+async def _describe(client: Client) -> str:
+    """The environment description the paper's task message carries (a resource: not a tool call)."""
+    try:
+        result = await client.read_resource(DESCRIPTION_URI)
+    except Exception as exc:
+        raise ServerConnectionError(f"cannot read {DESCRIPTION_URI}: {exc}") from exc
+    return "\n".join(getattr(c, "text", "") for c in result.contents).strip()
+
+
+def _sendable(message: dict[str, Any]) -> dict[str, Any]:
+    """The assistant message as the conversation keeps it: tool-call arguments that are not a JSON
+    object become "{}" (the trace keeps them verbatim). Providers re-parse the history's arguments,
+    and one that cannot (Ollama's route) would fail every later call on the model's old mistake."""
+    calls = message.get("tool_calls")
+    if not calls:
+        return message
+    fixed = []
+    for call in calls:
+        raw = call["function"].get("arguments") or "{}"
+        try:
+            ok = isinstance(json.loads(raw), dict)
+        except json.JSONDecodeError:
+            ok = False
+        fixed.append(call if ok else {**call, "function": {**call["function"], "arguments": "{}"}})
+    return {**message, "tool_calls": fixed}
 
 
 async def _execute(
@@ -197,45 +251,36 @@ async def _execute(
         problem += " Call the tool again with arguments that match its schema."
     elif name not in names:
         problem = f"Error: there is no tool called {name!r}. The tools are: {', '.join(sorted(names))}."
-    if problem is not None or arguments is None:  # rejected here: the server never sees the call
-        content = problem or ""
-        trace.emit(
-            ToolResult(
-                t=trace.now(),
-                invocation=invocation,
-                id=call["id"],
-                name=name,
-                is_error=True,
-                content=content,
-                latency_s=0.0,
-            )
-        )
-        return None, content
     t0 = time.monotonic()
-    try:
-        result = await client.call_tool(
-            name,
-            arguments,
-            read_timeout_seconds=settings.timeout_s,
-            meta=cast(RequestParamsMeta, {MODEL_META_KEY: settings.model}),
-        )
-    except Exception as exc:  # the server or the transport failed: the run cannot go on
-        raise ServerConnectionError(f"the robot server failed on {name}: {exc}") from exc
-    content = _text(result)
-    structured = result.structured_content if isinstance(result.structured_content, dict) else None
+    is_error, structured = True, None
+    rejected = problem is not None or arguments is None
+    if rejected:  # rejected here: the server never sees the call
+        content = problem or ""
+    else:
+        try:
+            result = await client.call_tool(
+                name,
+                arguments,
+                read_timeout_seconds=settings.timeout_s,
+                meta=cast(RequestParamsMeta, {MODEL_META_KEY: settings.model}),
+            )
+        except Exception as exc:  # the server or the transport failed: the run cannot go on
+            raise ServerConnectionError(f"the robot server failed on {name}: {exc}") from exc
+        content, is_error = _text(result), bool(result.is_error)
+        structured = result.structured_content if isinstance(result.structured_content, dict) else None
     trace.emit(
         ToolResult(
             t=trace.now(),
             invocation=invocation,
             id=call["id"],
             name=name,
-            is_error=bool(result.is_error),
+            is_error=is_error,
             content=content,
             structured=structured,
-            latency_s=round(time.monotonic() - t0, 4),
+            latency_s=0.0 if rejected else round(time.monotonic() - t0, 4),
         )
     )
-    if name == "end_task" and not result.is_error:
+    if name == "end_task" and arguments is not None and not is_error:
         return (arguments.get("status") == "success", str(arguments.get("summary", ""))), content
     return None, content
 
@@ -246,6 +291,7 @@ def finish(trace: Trace, result: EpisodeResult, verdict: Verdict | None) -> RunF
         trace.emit(verdict)
     event = RunFinished(
         t=trace.now(),
+        outcome=result.outcome,
         ended=result.ended,
         stopped=result.stopped,
         believed_success=result.believed_success,

@@ -18,6 +18,8 @@ class ModelSpec(BaseModel):
     model: str = Field(description="LiteLLM model string, e.g. gpt-4.1 or scripted/planner")
     label: str | None = Field(default=None, description="name in the results and reports (default: model)")
     api_base: str | None = Field(default=None, description="base URL of an OpenAI-compatible server")
+    api_key: str | None = Field(default=None, description="the key, if not from the provider's usual variable")
+    api_key_env: str | None = Field(default=None, description="an environment variable holding the key")
     params: dict[str, Any] = Field(default={}, description="extra completion parameters, e.g. temperature")
 
     @property
@@ -31,6 +33,9 @@ class EvalConfig(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
     name: str = "study"
+    protocol: Literal["paper", "robocog"] = Field(
+        default="robocog", description="'paper' reproduces the paper exactly; 'robocog' is the improved protocol"
+    )
     models: list[ModelSpec] = Field(min_length=1)
     tasks: list[str] = Field(default=["T1", "T2"], min_length=1, description="task ids, run in order")
     trials: int = Field(default=10, ge=1)
@@ -69,10 +74,14 @@ class AttemptRow(BaseModel):
     task: str
     invocations: int
     tool_calls: int
+    outcome: Literal["ended", "stopped", "error"] = Field(
+        description="end_task was called; never called within the invocations (a refusal); or the model "
+        "service or the server failed (an error, kept out of success rates)"
+    )
     believed_success: bool | None = Field(description="end_task's status; None when the task was never ended")
     true_success: bool
     agreement: bool = Field(description="believed success equals true success (a never-ended task believes nothing)")
-    stopped: bool = Field(description="the agent never called end_task (a refusal), or the attempt broke off")
+    stopped: bool = Field(description="the agent never called end_task within the invocations (a refusal)")
     tokens_in: int
     tokens_out: int
     cost: float | None
@@ -80,12 +89,21 @@ class AttemptRow(BaseModel):
     wall_s: float
     seed: int
     memory_labels: Literal["believed", "verified"]
+    protocol: Literal["paper", "robocog"] = "robocog"
     trace: str | None = Field(description="the attempt's trace file, relative to the results file")
     version: str
     reason: str = Field(default="", description="the ground-truth verdict's reason")
-    error: str | None = Field(default=None, description="why the attempt broke off, if it did")
+    error: str | None = Field(default=None, description="the failure's class and message, when outcome is 'error'")
     study: str = ""
     model_id: str = Field(default="", description="the LiteLLM model string")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _outcome_of_old_rows(cls, data: Any) -> Any:
+        """Rows written before `outcome` existed: derive it from `error` and `stopped`."""
+        if isinstance(data, dict) and "outcome" not in data:
+            data = {**data, "outcome": "error" if data.get("error") else "stopped" if data.get("stopped") else "ended"}
+        return data
 
     @property
     def unit(self) -> tuple[str, int]:

@@ -13,7 +13,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, Field, TypeAdapter
 
-TRACE_VERSION = 1
+TRACE_VERSION = 2
 
 
 class _Event(BaseModel):
@@ -28,6 +28,7 @@ class RunStarted(_Event):
     server: str = Field(description="how the server was reached: the command line or the URL")
     tools: list[str]
     seed: int | None = None
+    protocol: str = Field(default="robocog", description="the evaluation protocol: 'paper' or 'robocog'")
 
 
 class ModelTurn(_Event):
@@ -78,8 +79,11 @@ class Verdict(_Event):
 
 class RunFinished(_Event):
     type: Literal["run_finished"] = "run_finished"
+    outcome: Literal["ended", "stopped", "error"] = Field(
+        description="end_task was called; never called (a refusal); or the model service or server failed"
+    )
     ended: bool = Field(description="the agent called end_task")
-    stopped: bool = Field(description="the agent never ended the task (a refusal) or the run broke off")
+    stopped: bool = Field(description="the agent never ended the task within the invocations (a refusal)")
     believed_success: bool | None = None
     true_success: bool | None = None
     invocations: int

@@ -104,7 +104,8 @@ async def test_a_failing_model_call_fails_the_attempt_with_its_reason_not_the_ru
         study(ModelSpec(model="scripted/nonexistent"), trials=1, memory_iterations=1), tmp_path / "r.jsonl"
     )
     assert len(rows) == 1 and rows[0].error is not None and "unknown scripted model" in rows[0].error
-    assert rows[0].stopped and not rows[0].true_success
+    # A model-service failure is an error, never a refusal.
+    assert rows[0].outcome == "error" and not rows[0].stopped
 
 
 async def test_existing_results_are_not_overwritten_without_resume(tmp_path: Path) -> None:
@@ -151,7 +152,10 @@ async def test_resume_after_a_kill_gives_exactly_the_rows_of_an_uninterrupted_ru
 
 def _attempt(task: str, success: bool, error: str | None = None) -> AttemptRow:
     row = read_rows(DATA / "results_small.jsonl")[0]
-    return row.model_copy(update={"task": task, "memory_iteration": 1, "true_success": success, "error": error})
+    outcome = "error" if error else "ended"
+    return row.model_copy(
+        update={"task": task, "memory_iteration": 1, "true_success": success, "error": error, "outcome": outcome}
+    )
 
 
 def test_a_unit_is_complete_when_every_task_ran_or_lost_a_requirement() -> None:
@@ -161,8 +165,11 @@ def test_a_unit_is_complete_when_every_task_ran_or_lost_a_requirement() -> None:
     assert unit_complete([_attempt("T1", False), _attempt("T3", True)], config, requires)
     assert not unit_complete([_attempt("T1", True), _attempt("T3", True)], config, requires)
     assert unit_complete([_attempt("T1", True), _attempt("T2", False), _attempt("T3", False)], config, requires)
-    # The server died: the rest of that iteration was never going to run.
-    assert unit_complete([_attempt("T1", False, "server failure: EOF")], config, requires)
+    # An attempt errored (the server or the model service failed): the unit runs again on --resume.
+    assert not unit_complete([_attempt("T1", False, "server failure: EOF")], config, requires)
+    assert not unit_complete(
+        [_attempt("T1", True), _attempt("T2", True, "ModelServiceError: 500"), _attempt("T3", True)], config, requires
+    )
 
 
 async def test_a_task_runs_only_after_the_tasks_it_requires_succeeded(tmp_path: Path) -> None:
