@@ -16,13 +16,15 @@ if TYPE_CHECKING:  # only for the annotations: the CLI starts without importing 
     from robocog.agent.connection import ServerSpec
     from robocog.agent.loop import AgentSettings
 
+from robocog.agent.protocols import PROTOCOLS
+
 DEFAULT_MODEL = "scripted/planner"
 
 EPILOG = """\
 models: any LiteLLM model string, e.g. gpt-4.1, anthropic/claude-sonnet-4-20250514, ollama/qwen3,
-openai/<name> with --api-base for a local OpenAI-compatible server (llama.cpp, vLLM). Offline and
-without a key: scripted/planner (the default), scripted/overconfident, scripted/refuser,
-replay/TRACE.jsonl.
+openai/<name> with --api-base for a local OpenAI-compatible server (llama.cpp, vLLM, LM Studio; a
+placeholder key is sent when none is given). Offline and without a key: scripted/planner (the
+default), scripted/overconfident, scripted/refuser, replay/TRACE.jsonl.
 """
 
 
@@ -39,8 +41,22 @@ def _add_connection(p: argparse.ArgumentParser) -> None:
 def _add_model(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("model")
     g.add_argument("--model", default=DEFAULT_MODEL, help=f"LiteLLM model string (default: {DEFAULT_MODEL})")
-    g.add_argument("--api-base", help="base URL of an OpenAI-compatible server (llama.cpp, vLLM, ...)")
+    g.add_argument(
+        "--api-base", help="base URL of the model server, e.g. http://127.0.0.1:8000/v1 (llama.cpp, vLLM, a proxy)"
+    )
+    g.add_argument(
+        "--api-key",
+        help="the model service's key (default: the provider's usual variable, e.g. OPENAI_API_KEY; "
+        "with --api-base and no key, a placeholder for keyless local servers)",
+    )
     g.add_argument("--temperature", type=float, default=None)
+    g.add_argument(
+        "--protocol",
+        choices=["robocog", "paper"],
+        default="robocog",
+        help="'paper': the paper's messages, system prompt, one conversation across the tasks, the scratchpad "
+        "kept, top-5 retrieval; 'robocog' (default): the improved protocol",
+    )
     g.add_argument(
         "--param",
         action="append",
@@ -88,6 +104,12 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--trials", type=int, help="override the config's number of trials")
     ev.add_argument("--memory-iterations", type=int, help="override the config's memory iterations")
     ev.add_argument("--server-cmd", help="command line that starts a server over stdio (default: robocog-server)")
+    ev.add_argument("--protocol", choices=["robocog", "paper"], help="override the config's protocol")
+    ev.add_argument(
+        "--allow-errors",
+        action="store_true",
+        help="exit 0 even when attempts errored (a model service or server failure; --resume reruns them)",
+    )
     ev.add_argument("--quiet", action="store_true", help="no progress bar")
     b = sub.add_parser("bench", help="time a server as an agent sees it (episode, each tool, the model calls)")
     b.add_argument("--task", default="T1", help="task id to run (default T1)")
@@ -98,6 +120,18 @@ def build_parser() -> argparse.ArgumentParser:
     rep.add_argument("results", type=Path, help="results file written by robocog eval")
     rep.add_argument("--out", type=Path, required=True, help="directory for report.md, the figures and the CSV")
     rep.add_argument("--title", default=None, help="the report's title")
+    rep.add_argument(
+        "--csv",
+        choices=("ours", "upstream"),
+        default="ours",
+        help="results.csv: our values (default) or the published encoding (0/1, tasks 1/2, trials from 1)",
+    )
+    con = sub.add_parser(
+        "contract", help="dump a server's MCP contract, or check it against a baseline (any MCP server)"
+    )
+    from robocog.agent.contract import add_arguments as add_contract_arguments
+
+    add_contract_arguments(con)
     return parser
 
 
@@ -124,6 +158,7 @@ def _settings(args: argparse.Namespace) -> AgentSettings:
         max_steps=args.max_steps,
         timeout_s=args.timeout,
         api_base=args.api_base,
+        api_key=args.api_key,
         seed=args.seed,
         temperature=args.temperature,
         params=_params(args.param),
@@ -140,18 +175,19 @@ def _server_spec(args: argparse.Namespace) -> ServerSpec:
         ("--memory-namespace", args.memory_namespace),
         ("--seed", args.seed),
         ("--scene", args.scene),
+        ("--search-k", PROTOCOLS[args.protocol].search_k if args.protocol != "robocog" else None),
     ):
         if value is not None:
             extra += [flag, str(value)]
     return ServerSpec.from_options(args.url, args.server_cmd, extra if not args.url else [])
 
 
-def _preload_litellm() -> threading.Thread:
-    """Import LiteLLM (seconds) on a thread while the server starts."""
+def _preload_litellm(model: str) -> threading.Thread:
+    """Import LiteLLM and what the model's route loads (seconds) on a thread while the server starts."""
 
     from robocog.agent.loop import warm_up_litellm
 
-    thread = threading.Thread(target=warm_up_litellm, daemon=True)
+    thread = threading.Thread(target=warm_up_litellm, args=([model],), daemon=True)
     thread.start()
     return thread
 
@@ -165,13 +201,15 @@ async def _run_tasks(args: argparse.Namespace, tasks: Sequence[str] | None, load
     from robocog.shared.trace import Verdict
 
     settings = _settings(args)
+    protocol = PROTOCOLS[args.protocol]
     console = make_console()
     ok = True
+    conversation: list[dict[str, Any]] = []  # carried from task to task under the paper's protocol
     async with connect(_server_spec(args)) as robot:
         if loader is not None:
             await asyncio.to_thread(loader.join)
         try:
-            check_credentials(settings.model, settings.api_base)
+            check_credentials(settings.model, settings.api_base, settings.api_key)
         except ModelServiceError as exc:
             print(f"robocog: {exc}", file=sys.stderr)
             return 2
@@ -185,18 +223,24 @@ async def _run_tasks(args: argparse.Namespace, tasks: Sequence[str] | None, load
             if task is None:
                 break
             prompt = robot.tasks.get(task, task)
+            task_id = robot.task_id_for(prompt)
+            if robot.can_check and task_id is not None:  # the task's own episode, judged on its own
+                await robot.client.call_tool(
+                    "begin_task", {"task_id": task_id, "keep_scratchpad": protocol.keep_scratchpad}
+                )
             trace = Trace(args.trace, console=None if args.quiet else console)
             result = await run_episode(
                 robot.client,
                 prompt,
                 settings,
                 trace,
-                system_prompt=robot.system_prompt,
+                system_prompt=await robot.prompt(protocol.system_prompt),
                 tools=robot.tools,
                 server_label=robot.label,
+                protocol=protocol,
+                conversation=conversation if protocol.continue_conversation else [],
             )
             verdict = None
-            task_id = robot.task_id_for(prompt)
             if robot.can_check and task_id is not None:
                 checked = await robot.client.call_tool("check_task", {"task_id": task_id})
                 data = checked.structured_content or {}
@@ -231,6 +275,7 @@ def _ask() -> str | None:
 def _eval(args: argparse.Namespace) -> int:
     import shlex
 
+    from pydantic import ValidationError
     from rich.progress import (
         BarColumn,
         MofNCompleteColumn,
@@ -240,17 +285,27 @@ def _eval(args: argparse.Namespace) -> int:
     )
     from rich.progress import Progress as ProgressBar
 
-    from robocog.agent.evaluation import Progress, run_eval, summary_line
-    from robocog.shared.errors import ConfigError, ServerConnectionError
-    from robocog.shared.evaluation import load_config
+    from robocog.agent.evaluation import Progress, errored, run_eval, summary_line
+    from robocog.shared.errors import ConfigError, ModelServiceError, ServerConnectionError
+    from robocog.shared.evaluation import AttemptRow, EvalConfig, load_config
 
     try:
         config = load_config(args.config)
     except ConfigError as exc:
         print(f"robocog: {exc}", file=sys.stderr)
         return 2
-    updates = {k: v for k, v in (("trials", args.trials), ("memory_iterations", args.memory_iterations)) if v}
-    config = config.model_copy(update=updates)
+    overrides = {"trials": args.trials, "memory_iterations": args.memory_iterations, "protocol": args.protocol}
+    updates = {k: v for k, v in overrides.items() if v is not None}
+    try:  # validated exactly as the same values in the file would be
+        config = EvalConfig.model_validate({**config.model_dump(), **updates})
+    except ValidationError as exc:
+        problem = exc.errors()[0]
+        flag = "--" + str(problem["loc"][0]).replace("_", "-")
+        print(f"robocog: {flag}: {problem['msg']}", file=sys.stderr)
+        return 2
+    if args.workers is not None and args.workers < 1:
+        print("robocog: --workers: must be at least 1", file=sys.stderr)
+        return 2
     if args.out is not None:
         out = args.out
     elif config.out is not None:
@@ -272,17 +327,38 @@ def _eval(args: argparse.Namespace) -> int:
 
         def show(p: Progress) -> None:
             rate = f"success {p.successes}/{p.attempts} ({p.successes / p.attempts:.0%})" if p.attempts else ""
+            rate += f", {p.errors} errored" if p.errors else ""
             bar.update(task, completed=p.done, total=p.total, rate=rate)
+
+        def warn(row: AttemptRow) -> None:
+            where = f"{row.model} trial {row.trial} iteration {row.memory_iteration} {row.task}"
+            bar.console.print(f"robocog: warning: {where} errored: {row.error}", markup=False, highlight=False)
 
         try:
             rows = asyncio.run(
-                run_eval(config, out, workers=args.workers, resume=args.resume, server_command=server, on_progress=show)
+                run_eval(
+                    config,
+                    out,
+                    workers=args.workers,
+                    resume=args.resume,
+                    server_command=server,
+                    on_progress=show,
+                    on_error=warn,
+                )
             )
-        except (ConfigError, ServerConnectionError) as exc:
+        except (ConfigError, ModelServiceError, ServerConnectionError) as exc:
             print(f"robocog: {exc}", file=sys.stderr)
             return 2
     print(f"{len(rows)} attempts in {out}")
     print(summary_line(rows))
+    failed = errored(rows)
+    if failed and not args.allow_errors:
+        print(
+            f"robocog: {len(failed)} attempts errored (model service or server failures, not refusals); "
+            "`--resume` reruns their trials, `--allow-errors` accepts them",
+            file=sys.stderr,
+        )
+        return 1
     return 0
 
 
@@ -292,7 +368,7 @@ def _bench(args: argparse.Namespace) -> int:
     from robocog.shared.errors import ConfigError, ModelServiceError
 
     settings = _settings(args)
-    warm_up_litellm()  # not part of what is measured
+    warm_up_litellm([settings.model])  # not part of what is measured
     try:
         figures = asyncio.run(bench(_server_spec(args), settings, args.task, args.runs))
     except (ConfigError, ModelServiceError) as exc:
@@ -309,7 +385,9 @@ def _report(args: argparse.Namespace) -> int:
 
     try:
         rows = load_rows(args.results)
-        path = render(rows, args.out, title=args.title or f"robocog evaluation: {args.results.name}")
+        path = render(
+            rows, args.out, title=args.title or f"robocog evaluation: {args.results.name}", csv_format=args.csv
+        )
     except (FileNotFoundError, ValueError, ValidationError) as exc:
         print(f"robocog: {args.results}: {exc}", file=sys.stderr)
         return 2
@@ -319,7 +397,7 @@ def _report(args: argparse.Namespace) -> int:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    loader = _preload_litellm() if args.command in ("run", "chat") else None  # seconds: start at once
+    loader = _preload_litellm(args.model) if args.command in ("run", "chat") else None  # seconds: start at once
     from robocog.agent.connection import leaf_message
     from robocog.shared.errors import ServerConnectionError
 
@@ -335,6 +413,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _report(args)
         if args.command == "bench":
             return _bench(args)
+        if args.command == "contract":
+            from robocog.agent.contract import main as contract_main
+
+            return contract_main(args)
     except KeyboardInterrupt:
         return 130
     except ServerConnectionError as exc:

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import asyncio
 import hashlib
-import os
 import re
 import shutil
 import sys
@@ -32,7 +31,8 @@ from pathlib import Path
 from typing import Any
 
 from robocog.agent.connection import Robot, ServerSpec, connect, leaf_message
-from robocog.agent.loop import AgentSettings, finish, run_episode, warm_up_litellm
+from robocog.agent.loop import AgentSettings, finish, run_episode
+from robocog.agent.model import check_credentials, resolve_api_key, warm_up_litellm
 from robocog.agent.protocols import PROTOCOLS, EvalProtocol
 from robocog.agent.trace import Trace
 from robocog.shared import __version__
@@ -229,7 +229,7 @@ class Runner:
             max_steps=cfg.max_steps,
             timeout_s=cfg.timeout_s,
             api_base=spec.api_base,
-            api_key=spec.api_key or (os.environ.get(spec.api_key_env) if spec.api_key_env else None),
+            api_key=resolve_api_key(spec),
             seed=model_seed(cfg.seed, trial, iteration, task_id),
             params=dict(spec.params),
         )
@@ -370,6 +370,8 @@ async def run_eval(
     rows = read_rows(out)
     if rows and not resume:
         raise ConfigError(f"{out} already holds {len(rows)} results: use --resume to continue, or another --out")
+    for spec in config.models:  # a missing key fails the study before any server starts
+        check_credentials(spec.model, spec.api_base, resolve_api_key(spec))
     runner = Runner(config, out, server_command)
     # Which units are complete depends on the tasks' requirements: only the server knows them.
     pending = plan_units(config, out, rows, await runner.requirements() if rows else {})
@@ -381,7 +383,7 @@ async def run_eval(
     n = max(1, min(workers or config.workers, len(pending) or 1))
     if pending:
         # LiteLLM's import and first call (seconds) happen while the servers start.
-        await asyncio.to_thread(warm_up_litellm)
+        await asyncio.to_thread(warm_up_litellm, [m.model for m in config.models])
         async with asyncio.TaskGroup() as tg:
             for i in range(n):
                 tg.create_task(runner.worker(i, queue))

@@ -1,88 +1,460 @@
 """The model service: one LiteLLM call with retries, credentials, and what a response carries.
 
+What `complete()` guarantees, whatever the provider:
+
+- Only parameters the provider takes are sent (LiteLLM's `drop_params`); what is left out is named
+  once per process on stderr ("robocog: anthropic/... does not take 'seed'; it is not sent").
+- One request per attempt (LiteLLM's and the OpenAI SDK's own retries are off): this loop is the
+  only retrier. Authentication, permission and bad-request errors are never retried; a rate limit
+  waits what the provider's `Retry-After` says (capped), else backs off with jitter; server errors,
+  timeouts and connection errors back off and try again.
+- Every failure is a `ModelServiceError` whose message is one line carrying the provider's own
+  words: "anthropic/claude-sonnet-4-20250514 answered 401 (authentication): invalid x-api-key".
+- With `api_base` and no key at all, a placeholder key is sent, so keyless local servers
+  (llama.cpp, vLLM, LM Studio) work.
+- The cost of a turn comes from LiteLLM's local cost map when the model is in it, else it is None:
+  never a guess (LiteLLM prices unknown Ollama models at 0.0; that becomes None here).
+
 Import this module only where a model is called: importing LiteLLM costs seconds.
 """
 
 from __future__ import annotations
 
+import ast
 import asyncio
+import contextlib
+import json
+import os
 import random
+import re
+import sys
+import time
+from collections.abc import Iterable
+from dataclasses import dataclass
+from email.utils import parsedate_to_datetime
+from functools import cache
 from typing import TYPE_CHECKING, Any
 
 from robocog.shared.errors import ModelServiceError
 
 if TYPE_CHECKING:
     from robocog.agent.loop import AgentSettings
+    from robocog.shared.evaluation import ModelSpec
+
+#: The key sent to a server given by `api_base` when no key is given or set (keyless local servers).
+PLACEHOLDER_KEY = "sk-no-key-required"
+#: The longest a rate limit's `Retry-After` is honoured for, in seconds.
+MAX_RETRY_AFTER_S = 60.0
+#: The longest backoff between two attempts when the provider says nothing, in seconds.
+MAX_BACKOFF_S = 30.0
+#: Routes that need no key: the offline models and Ollama.
+KEYLESS_ROUTES = frozenset({"scripted", "replay", "ollama", "ollama_chat"})
+#: HTTP statuses that no retry can fix.
+FINAL_STATUSES = frozenset({400, 401, 403, 404, 405, 413, 422})
+
+_STATUS_KINDS = {
+    400: "bad request",
+    401: "authentication",
+    403: "permission denied",
+    404: "not found",
+    408: "timeout",
+    409: "conflict",
+    413: "request too large",
+    422: "unprocessable request",
+    429: "rate limit",
+    500: "server error",
+    502: "bad gateway",
+    503: "unavailable",
+    504: "gateway timeout",
+    529: "overloaded",
+}
 
 
-def warm_up_litellm() -> None:
-    """Import LiteLLM and make one offline call: the first call pays for its lazy machinery."""
-    import contextlib
+# --- LiteLLM, once -------------------------------------------------------------------------------
 
-    with contextlib.suppress(Exception):  # a real failure shows on the first real call
-        import litellm
 
+_configured = False
+
+
+def _litellm() -> Any:
+    """LiteLLM, configured once per process: no banners, the offline models registered."""
+    global _configured
+    import litellm
+
+    if not _configured:
+        litellm.suppress_debug_info = True  # no "Give Feedback / Get Help" or "Provider List" prints
         from robocog.agent.providers import register
 
         register()
+        _configured = True
+    return litellm
+
+
+def warm_up_litellm(models: Iterable[str] = ()) -> None:
+    """Import LiteLLM and what its first call with tools loads (about 1-2 s), so that no model turn
+    pays for it: the offline models, the MCP-tools check LiteLLM makes on every call with tools,
+    and, for each of `models`, its route (the OpenAI SDK's resources for `openai/...`)."""
+    with contextlib.suppress(Exception):  # a real failure shows on the first real call
+        litellm = _litellm()
         litellm.completion(model="scripted/refuser", messages=[{"role": "user", "content": "warm up"}])
+        import litellm.responses.mcp.chat_completions_handler
+        import litellm.responses.mcp.litellm_proxy_mcp_handler
+    for model in models:
+        with contextlib.suppress(Exception):
+            _, provider = _route(model)
+            _priced(model)
+            _supported(model)
+            if provider == "openai":
+                import openai
+
+                client = openai.AsyncOpenAI(api_key=PLACEHOLDER_KEY, base_url="http://127.0.0.1:9/v1")
+                _ = client.chat.completions  # the SDK imports its resources on first use
 
 
-def check_credentials(model: str, api_base: str | None) -> None:
-    """Raise `ModelServiceError` naming the environment variable a cloud model needs and lacks."""
-    if model.split("/", 1)[0] in ("scripted", "replay", "ollama", "ollama_chat") or api_base:
-        return
-    import litellm
+# --- credentials ---------------------------------------------------------------------------------
 
+
+def _missing_keys(model: str, api_base: str | None = None) -> list[str]:
+    """The environment variables LiteLLM says `model` needs and lacks (none for unknown providers)."""
     try:
-        check = litellm.validate_environment(model=model)
+        check = _litellm().validate_environment(model=model, api_base=api_base)
     except Exception:  # an unknown provider: let the call itself say what is wrong
+        return []
+    return list(check.get("missing_keys") or [])
+
+
+def check_credentials(model: str, api_base: str | None, api_key: str | None = None) -> None:
+    """Raise `ModelServiceError` naming the environment variable a cloud model needs and lacks.
+
+    Nothing to check when a key is given, or a server is (`api_base`: a local server needs no key,
+    and one that does gets the key given or the placeholder)."""
+    if api_key or api_base or _route(model)[1] in KEYLESS_ROUTES:
         return
-    missing = check.get("missing_keys") or []
+    missing = _missing_keys(model)
     if missing:
-        raise ModelServiceError(f"model {model!r} needs {', '.join(missing)} set in the environment")
+        raise ModelServiceError(
+            f"model {model!r} needs {', '.join(missing)} set in the environment (or give --api-key)"
+        )
 
 
-async def complete(settings: AgentSettings, messages: list[dict[str, Any]], tools: list[dict[str, Any]]) -> Any:
-    """One model call with retries and backoff on rate limits, timeouts and server errors."""
-    import litellm
+def resolve_api_key(spec: ModelSpec) -> str | None:
+    """The key of a study's model: `api_key`, else the variable named by `api_key_env`, else None
+    (the provider's usual variable, or the placeholder for a server given by `api_base`)."""
+    if spec.api_key:
+        return spec.api_key
+    if spec.api_key_env:
+        value = os.environ.get(spec.api_key_env)
+        if not value:
+            raise ModelServiceError(
+                f"model {spec.name!r} takes its key from the environment variable {spec.api_key_env}, which is not set"
+            )
+        return value
+    return None
 
-    from robocog.agent.providers import register
 
-    register()
+def _api_key(settings: AgentSettings) -> str | None:
+    """The key to send: the one given (`api_key`, or `params`' own), else the placeholder for a
+    server given by `api_base` when the provider's variable is not set, else None (LiteLLM reads it)."""
+    given = settings.api_key or settings.params.get("api_key")
+    if given:
+        return str(given)
+    # A local server needs no key, but LiteLLM refuses to call without one: send the placeholder,
+    # unless the provider's own variable is set (a proxy that takes the usual key).
+    keyless = settings.api_base and _route(settings.model)[1] not in KEYLESS_ROUTES
+    return PLACEHOLDER_KEY if keyless and _missing_keys(settings.model, settings.api_base) else None
+
+
+# --- what a route takes --------------------------------------------------------------------------
+
+
+@cache
+def _route(model: str) -> tuple[str, str]:
+    """(model name, provider) as LiteLLM routes `model`; provider "" when LiteLLM does not know it."""
+    try:
+        name, provider, *_ = _litellm().get_llm_provider(model)
+    except Exception:
+        return model, ""
+    return str(name), str(provider or "")
+
+
+@cache
+def _supported(model: str) -> frozenset[str] | None:
+    """The OpenAI parameters the provider of `model` takes (None: unknown, so nothing is dropped)."""
+    name, provider = _route(model)
+    if not provider or provider in ("scripted", "replay"):
+        return None
+    try:
+        supported = _litellm().get_supported_openai_params(model=name, custom_llm_provider=provider)
+    except Exception:
+        return None
+    return frozenset(supported) if supported is not None else None
+
+
+@cache
+def _unsupported(model: str, keys: frozenset[str]) -> frozenset[str]:
+    """Which of `keys` are OpenAI parameters that `model`'s provider does not take (what
+    `drop_params` leaves out; other keys are provider-specific and passed through)."""
+    supported = _supported(model)
+    if supported is None:
+        return frozenset()
+    from litellm.constants import DEFAULT_CHAT_COMPLETION_PARAM_VALUES
+
+    droppable = set(DEFAULT_CHAT_COMPLETION_PARAM_VALUES) - _NEVER_DROPPED
+    return frozenset(k for k in keys if k in droppable and k not in supported)
+
+
+#: LiteLLM's own arguments among the parameters it may drop: never a provider's parameter.
+_NEVER_DROPPED = frozenset(
+    {
+        "model",
+        "messages",
+        "custom_llm_provider",
+        "drop_params",
+        "allowed_openai_params",
+        "additional_drop_params",
+        "max_retries",
+        "api_version",
+        "extra_headers",
+        "metadata",
+    }
+)
+
+_noticed: set[tuple[str, str]] = set()
+
+
+def _notice_dropped(model: str, dropped: frozenset[str]) -> None:
+    """Say once per process and model which parameters are not sent (one line on stderr)."""
+    new = sorted(p for p in dropped if (model, p) not in _noticed)
+    if not new:
+        return
+    _noticed.update((model, p) for p in new)
+    names = ", ".join(repr(p) for p in new)
+    pronoun = "it is" if len(new) == 1 else "they are"
+    print(f"robocog: {model} does not take {names}; {pronoun} not sent", file=sys.stderr)
+
+
+@cache
+def _priced(model: str) -> bool:
+    """Whether LiteLLM's local cost map knows `model` (so its cost is a price, not a guess)."""
+    name, provider = _route(model)
+    cost_map = _litellm().model_cost
+    for key in (model, f"{provider}/{name}"):
+        if cost_map.get(key, {}).get("input_cost_per_token") is not None:
+            return True
+    info = cost_map.get(name) or {}  # a bare name counts only for its own provider
+    return info.get("input_cost_per_token") is not None and info.get("litellm_provider") == provider
+
+
+def _call_arguments(settings: AgentSettings) -> dict[str, Any]:
+    """The keyword arguments of `litellm.acompletion` for `settings`, without what is dropped."""
     kwargs: dict[str, Any] = dict(settings.params)
-    if settings.api_base:
-        kwargs["api_base"] = settings.api_base
     if settings.seed is not None:
         kwargs["seed"] = settings.seed
     if settings.temperature is not None:
         kwargs["temperature"] = settings.temperature
-    transient = (
-        litellm.RateLimitError,
-        litellm.Timeout,
-        litellm.APIConnectionError,
-        litellm.InternalServerError,
-        litellm.ServiceUnavailableError,
-    )
+    dropped = _unsupported(settings.model, frozenset(kwargs))
+    if dropped:
+        _notice_dropped(settings.model, dropped)
+        for name in dropped:
+            del kwargs[name]
+    if settings.api_base:
+        kwargs["api_base"] = settings.api_base
+    key = _api_key(settings)
+    if key:
+        kwargs["api_key"] = key
+    return kwargs
+
+
+# --- the call ------------------------------------------------------------------------------------
+
+
+async def complete(settings: AgentSettings, messages: list[dict[str, Any]], tools: list[dict[str, Any]]) -> Any:
+    """One model turn: a LiteLLM call, retried as the failure deserves; raises `ModelServiceError`."""
+    litellm = _litellm()
+    kwargs = _call_arguments(settings)
     for attempt in range(settings.retries + 1):
         try:
-            return await litellm.acompletion(
-                model=settings.model, messages=messages, tools=tools, timeout=settings.timeout_s, **kwargs
+            response = await litellm.acompletion(
+                model=settings.model,
+                messages=messages,
+                tools=tools,
+                timeout=settings.timeout_s,
+                drop_params=True,
+                max_retries=0,
+                **kwargs,
             )
-        except litellm.AuthenticationError as exc:
-            raise ModelServiceError(f"the model service refused the credentials: {exc}") from exc
-        except transient as exc:
-            if attempt == settings.retries:
-                raise ModelServiceError(f"the model service kept failing ({type(exc).__name__}): {exc}") from exc
-            await asyncio.sleep(min(30.0, settings.backoff_s * 2.0**attempt) * (0.5 + random.random()))
-        except Exception as exc:  # a bad request, an unknown model...: not worth retrying
-            raise ModelServiceError(f"the model call failed ({type(exc).__name__}): {exc}") from exc
+        except Exception as exc:
+            failure = classify(exc, settings)
+            if not failure.retry or attempt == settings.retries:
+                tries = f" (after {attempt + 1} attempts)" if attempt else ""
+                raise ModelServiceError(failure.message + tries) from exc
+            await asyncio.sleep(failure.wait(attempt, settings.backoff_s))
+            continue
+        hidden = getattr(response, "_hidden_params", None)
+        if isinstance(hidden, dict) and not _priced(settings.model):
+            hidden["response_cost"] = None  # not in the cost map: unknown, not free
+        return response
     raise AssertionError("unreachable")
 
 
+@dataclass(frozen=True)
+class Failure:
+    """What a failed call means: the one-line message, whether to try again, and how long to wait."""
+
+    message: str
+    retry: bool
+    retry_after: float | None = None  # what the provider asked for, in seconds
+
+    def wait(self, attempt: int, backoff_s: float) -> float:
+        """Seconds to wait before attempt `attempt + 1`: the provider's Retry-After (capped), else
+        exponential backoff with jitter."""
+        if self.retry_after is not None:
+            return min(MAX_RETRY_AFTER_S, max(0.0, self.retry_after))
+        return min(MAX_BACKOFF_S, backoff_s * 2.0**attempt) * (0.5 + random.random())
+
+
+def classify(exc: BaseException, settings: AgentSettings) -> Failure:
+    """Turn LiteLLM's exception into a `Failure` (one line, with the provider's own message)."""
+    import litellm
+
+    model = settings.model
+    text = provider_message(exc)
+    status = getattr(exc, "status_code", None)
+    status = status if isinstance(status, int) else None
+    if isinstance(exc, litellm.Timeout):
+        return Failure(f"{model} did not answer within {settings.timeout_s:g} s", retry=True)
+    if _missing_credentials(text):  # raised before any request (OpenAI's comes as a server error)
+        missing = _missing_keys(model)
+        hint = f"set {', '.join(missing)} or give --api-key" if missing else "give --api-key"
+        return Failure(f"{model} has no API key: {hint}", retry=False)
+    if isinstance(exc, litellm.APIConnectionError) or _cannot_connect(text):
+        where = settings.api_base or "its provider"
+        if _client_side(exc):  # e.g. a history LiteLLM cannot translate: no retry will help
+            return Failure(f"{model}: the request could not be built: {text}", retry=False)
+        return Failure(f"{model} could not be reached at {where}: {text}", retry=True)
+    if isinstance(exc, litellm.UnsupportedParamsError):
+        return Failure(f"{model} answered 400 (bad request): {text}", retry=False)
+    if status is not None and status >= 400:
+        kind = _STATUS_KINDS.get(status, "error")
+        message = f"{model} answered {status} ({kind}): {text}"
+        if status == 429:
+            return Failure(message, retry=True, retry_after=retry_after(exc))
+        return Failure(message, retry=status not in FINAL_STATUSES and (status >= 500 or status == 408))
+    return Failure(f"{model} failed ({type(exc).__name__}): {text}", retry=False)
+
+
+def _missing_credentials(text: str) -> bool:
+    return any(
+        marker in text
+        for marker in ("Missing credentials", "api_key client option must be set", "Missing Anthropic API Key")
+    )
+
+
+def _cannot_connect(text: str) -> bool:
+    return text.startswith("Connection error") or text.startswith("Cannot connect to host")
+
+
+def _client_side(exc: BaseException) -> bool:
+    """Whether the exception was caused by our own data (a JSON or type error), not the network."""
+    seen = 0
+    cause: BaseException | None = exc.__cause__ or exc.__context__
+    while cause is not None and seen < 10:
+        if isinstance(cause, ValueError | TypeError | KeyError) and not isinstance(cause, OSError):
+            return True
+        cause, seen = cause.__cause__ or cause.__context__, seen + 1
+    return "Expecting " in str(exc) and "delimiter" in str(exc)
+
+
+_PREFIX = re.compile(r"^(?:litellm\.)?[A-Za-z_]+(?:Error|Exception)\s*(?::|-)\s*")
+_HANDLE_WITH = re.compile(r"\.?\s*Handle with `litellm\.\w+`\.?\s*$")
+_ERROR_CODE = re.compile(r"^Error code: \d+\s*-\s*")
+
+
+def provider_message(exc: BaseException, limit: int = 300) -> str:
+    """The provider's own message in LiteLLM's exception, on one line: LiteLLM's class-name
+    prefixes and hints stripped, a JSON error body reduced to its message."""
+    text = str(getattr(exc, "message", None) or exc or type(exc).__name__)
+    for _ in range(5):
+        stripped = _ERROR_CODE.sub("", _PREFIX.sub("", text.strip(), count=1))
+        if stripped == text:
+            break
+        text = stripped
+    text = text.split("Traceback (most recent call last)", 1)[0]  # LiteLLM appends one to some errors
+    text = _HANDLE_WITH.sub("", text.strip())
+    start = text.find("{")
+    if start != -1:
+        body = _parse_body(text[start:])
+        found = _error_text(body) if body is not None else None
+        if found:
+            text = (text[:start].rstrip(" -:") + ": " if text[:start].strip(" -:") else "") + found
+    text = re.sub(r"\s*ssl:<[^>]*>", "", text)
+    text = " ".join(text.split())
+    return text if len(text) <= limit else text[: limit - 1] + "…"
+
+
+def _parse_body(text: str) -> Any:
+    for parse in (json.loads, ast.literal_eval):
+        try:
+            return parse(text)
+        except Exception:
+            continue
+    return None
+
+
+def _error_text(body: Any) -> str | None:
+    """The message of a provider's error body: {"error": {"message": ...}}, {"error": "..."}, ..."""
+    if isinstance(body, str):
+        return body
+    if not isinstance(body, dict):
+        return None
+    for key in ("error", "message", "detail", "msg"):
+        value = body.get(key)
+        if isinstance(value, str) and value:
+            return value
+        if isinstance(value, dict):
+            found = _error_text(value)
+            if found:
+                return found
+    return None
+
+
+def retry_after(exc: BaseException) -> float | None:
+    """The seconds a rate-limited provider asked to wait (`Retry-After`, seconds or an HTTP date;
+    or `retry-after-ms`), from the provider's headers LiteLLM keeps on the exception."""
+    import httpx
+
+    raw = getattr(exc, "litellm_response_headers", None)
+    if raw is None:
+        response = getattr(exc, "response", None)
+        raw = getattr(response, "headers", None)
+    try:
+        headers = httpx.Headers(raw or {})
+    except Exception:
+        return None
+    if headers.get("retry-after-ms"):
+        with contextlib.suppress(ValueError):
+            return float(headers["retry-after-ms"]) / 1000.0
+    value = headers.get("retry-after")
+    if not value:
+        return None
+    try:
+        return float(value)
+    except ValueError:
+        pass
+    try:
+        return parsedate_to_datetime(value).timestamp() - time.time()
+    except (TypeError, ValueError):
+        return None
+
+
+# --- what a response carries ---------------------------------------------------------------------
+
+
 def assistant_message(response: Any) -> dict[str, Any]:
+    """The response's first choice as an OpenAI-style assistant message (a text turn's content is
+    the text; a tool-call turn's empty content is None)."""
     msg = response.choices[0].message
-    out: dict[str, Any] = {"role": "assistant", "content": msg.content}
+    out: dict[str, Any] = {"role": "assistant", "content": msg.content or None}
     calls = getattr(msg, "tool_calls", None) or []
     if calls:
         out["tool_calls"] = [
@@ -97,9 +469,11 @@ def assistant_message(response: Any) -> dict[str, Any]:
 
 
 def usage(response: Any) -> tuple[int, int, float | None]:
-    usage = getattr(response, "usage", None)
-    tokens_in = int(getattr(usage, "prompt_tokens", 0) or 0)
-    tokens_out = int(getattr(usage, "completion_tokens", 0) or 0)
+    """(prompt tokens, completion tokens, cost) of a response, as the provider reported them; the
+    cost is None unless the model is priced in LiteLLM's local cost map."""
+    reported = getattr(response, "usage", None)
+    tokens_in = int(getattr(reported, "prompt_tokens", 0) or 0)
+    tokens_out = int(getattr(reported, "completion_tokens", 0) or 0)
     cost = None
     hidden = getattr(response, "_hidden_params", None) or {}
     if isinstance(hidden, dict) and hidden.get("response_cost") is not None:

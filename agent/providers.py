@@ -25,6 +25,8 @@ from robocog.agent.belief import as_dict
 from robocog.agent.planner import VARIANTS, Call, decide, is_variant
 from robocog.shared.trace import ModelTurn, read_trace
 
+litellm.suppress_debug_info = True  # no "Give Feedback / Get Help" banners on failed calls
+
 SCRIPTED_MODELS = VARIANTS
 
 

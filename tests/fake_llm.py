@@ -117,7 +117,7 @@ class Request:
     headers: dict[str, str]
     body: Any
     received: float = 0.0  # time.perf_counter() when the body had been read
-    server_s: float = 0.0  # the server's own time on it, scripted delay excluded
+    server_s: float = 0.0  # the server's own time on it (request line in -> response out), scripted delay excluded
     delay_s: float = 0.0  # the scripted delay it was answered after
     status: int = 0
 
@@ -387,10 +387,15 @@ def _as_callable(script: Script | None) -> Callable[[Request], Reply]:
 class _Handler(BaseHTTPRequestHandler):
     protocol_version = "HTTP/1.1"  # keep-alive, as LiteLLM's httpx clients expect
     disable_nagle_algorithm = True  # small responses must not wait for delayed ACKs
+    _started = 0.0  # time.perf_counter() when the current request's first line was read
     server: _Server
 
     def log_message(self, format: str, *args: Any) -> None:  # quiet
         pass
+
+    def parse_request(self) -> bool:
+        self._started = time.perf_counter()  # the request line is in: the server's own time starts
+        return super().parse_request()
 
     def do_GET(self) -> None:  # model lists (/v1/models, /api/tags) and health checks: empty, but valid
         with self.server.fake._lock:
@@ -435,9 +440,8 @@ class _Handler(BaseHTTPRequestHandler):
         request.status, request.delay_s = status, delay
         if delay and fake._stopping.wait(delay):
             return  # stopping: drop the connection
-        request.server_s = time.perf_counter() - received - delay
         try:
-            self._send(status, payload, headers)
+            self._send(status, payload, headers, request)
         except OSError:  # the client gave up (a timeout): nothing to answer
             self.close_connection = True
 
@@ -454,7 +458,9 @@ class _Handler(BaseHTTPRequestHandler):
         fake.problems.append(f"not a reply: {reply!r}")
         return 500, render_error(provider, Fail(500, f"fake_llm: the script returned {type(reply).__name__}")), {}
 
-    def _send(self, status: int, payload: Any, headers: dict[str, str] | None = None) -> None:
+    def _send(
+        self, status: int, payload: Any, headers: dict[str, str] | None = None, request: Request | None = None
+    ) -> None:
         if isinstance(payload, bytes):
             data, kind = payload, "application/octet-stream"
         elif isinstance(payload, str):
@@ -467,6 +473,8 @@ class _Handler(BaseHTTPRequestHandler):
         for k, v in (headers or {}).items():
             self.send_header(k, v)
         self.end_headers()
+        if request is not None:  # up to the last byte handed to the socket: the client's time from here
+            request.server_s = time.perf_counter() - self._started - request.delay_s
         self.wfile.write(data)
 
 

@@ -206,7 +206,8 @@ async def test_a_model_service_that_keeps_failing_ends_the_run_with_the_reason(
 ) -> None:
     canned([litellm.ServiceUnavailableError(message="down", llm_provider="canned", model="test")])
     result = await run(memory_robot, T1, "canned/test", backoff_s=0.01, retries=2)
-    assert result.stopped and result.error is not None and "ServiceUnavailableError" in result.error
+    assert (result.outcome, result.stopped) == ("error", False)  # an outage is not a refusal
+    assert result.error == "ModelServiceError: canned/test answered 503 (unavailable): down (after 3 attempts)"
 
 
 def test_a_missing_api_key_names_the_variable(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -215,6 +216,7 @@ def test_a_missing_api_key_names_the_variable(monkeypatch: pytest.MonkeyPatch) -
         check_credentials("gpt-4.1", None)
     check_credentials("scripted/planner", None)
     check_credentials("openai/local-model", "http://127.0.0.1:8080/v1")
+    check_credentials("gpt-4.1", None, "sk-given")
 
 
 async def test_control_tools_are_never_offered_to_the_model(memory_robot: Robot) -> None:

@@ -260,3 +260,37 @@ def test_robocog_report_command(tmp_path: Path) -> None:
         timeout=120,
     )
     assert missing.returncode == 2 and "no such results file" in missing.stderr
+
+
+# --- the command line ------------------------------------------------------------------------------
+
+
+def _eval_cli(config: EvalConfig, tmp_path: Path, *flags: str) -> subprocess.CompletedProcess[str]:
+    config_file = tmp_path / "study.yaml"
+    config_file.write_text(json.dumps(config.model_dump(mode="json")))  # JSON is YAML
+    command = [sys.executable, "-m", "robocog.agent.cli", "eval", str(config_file), "--quiet", *flags]
+    return subprocess.run(command, capture_output=True, text=True, timeout=120)
+
+
+def test_errored_attempts_are_warned_about_and_fail_the_eval_unless_allowed(tmp_path: Path) -> None:
+    config = study(ModelSpec(model="scripted/nonexistent"), trials=1, memory_iterations=2, workers=1)
+    run = _eval_cli(config, tmp_path, "--out", str(tmp_path / "a.jsonl"))
+    assert run.returncode == 1, run.stderr
+    assert "warning: scripted/nonexistent trial 0 iteration 0 T1 errored" in run.stdout + run.stderr
+    assert "1 attempts errored" in run.stderr and "--resume" in run.stderr
+    assert "(1 errored)" in run.stdout
+    allowed = _eval_cli(config, tmp_path, "--out", str(tmp_path / "b.jsonl"), "--allow-errors")
+    assert allowed.returncode == 0, allowed.stderr
+
+
+@pytest.mark.parametrize(
+    ("flags", "message"),
+    [
+        (["--trials", "0"], "robocog: --trials: Input should be greater than or equal to 1"),
+        (["--memory-iterations", "-2"], "robocog: --memory-iterations: Input should be greater than or equal to 1"),
+        (["--workers", "0"], "robocog: --workers: must be at least 1"),
+    ],
+)
+def test_command_line_overrides_are_validated_like_the_config(tmp_path: Path, flags: list[str], message: str) -> None:
+    run = _eval_cli(study(ModelSpec(model="scripted/planner")), tmp_path, "--out", str(tmp_path / "r.jsonl"), *flags)
+    assert (run.returncode, run.stderr.strip()) == (2, message)
