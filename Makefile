@@ -8,7 +8,7 @@ export LITELLM_LOCAL_MODEL_COST_MAP := True
 export ANONYMIZED_TELEMETRY := False
 export PYTHONDONTWRITEBYTECODE := 1
 
-.PHONY: help demo world-demo test bench lint format server inspector clean
+.PHONY: help demo world-demo test bench lint format server inspector conformance clean
 
 help: ## Show this help
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-10s %s\n", $$1, $$2}'
@@ -53,8 +53,11 @@ format: $(STAMP) ## Format the code with ruff
 server: $(STAMP) ## Start the MCP server over streamable HTTP on 127.0.0.1:8765
 	$(BIN)/robocog-server --transport http --port 8765
 
+conformance: $(STAMP) ## The official MCP conformance suite (pinned, via npm) against the HTTP server
+	$(BIN)/python tests/conformance/run.py
+
 inspector: $(STAMP) ## Open the MCP Inspector on the stdio server (needs Node.js and network for npx)
 	npx @modelcontextprotocol/inspector $(abspath $(BIN))/robocog-server
 
 clean: ## Remove the virtualenv and caches
-	rm -rf $(VENV) build .pytest_cache .ruff_cache .mypy_cache
+	rm -rf $(VENV) build .cache .pytest_cache .ruff_cache .mypy_cache

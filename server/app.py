@@ -12,6 +12,7 @@ from __future__ import annotations
 import inspect
 import json
 import logging
+import time
 from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
 from dataclasses import dataclass, field
@@ -20,18 +21,32 @@ from typing import TYPE_CHECKING, Annotated, Any, Literal, TypeVar
 import anyio
 import anyio.from_thread
 import anyio.to_thread
+from mcp.server.context import ServerRequestContext
 from mcp.server.mcpserver import Context, MCPServer
-from mcp.server.mcpserver.exceptions import ToolError
-from mcp_types import CallToolResult, TextContent
-from pydantic import BaseModel
+from mcp.server.mcpserver.exceptions import ResourceNotFoundError, ToolError
+from mcp_types import (
+    CallToolResult,
+    Completion,
+    CompletionArgument,
+    CompletionContext,
+    EmptyResult,
+    PromptReference,
+    ResourceTemplateReference,
+    SetLevelRequestParams,
+    SubscribeRequestParams,
+    TextContent,
+    UnsubscribeRequestParams,
+)
+from pydantic import BaseModel, Field
 
 from robocog.assets import ASSETS_DIR
+from robocog.server.clients import WORLD_RESOURCES, Clients, LogEntry, collecting, install_log_handlers
 from robocog.server.config import SessionConfig
 from robocog.server.tools import CONTROL_TOOLS, ROBOT_TOOLS
 from robocog.server.tools.base import Caller, ProgressFn, Tool
 from robocog.shared import __version__
 from robocog.shared.errors import WorldError
-from robocog.shared.protocol import MODEL_META_KEY
+from robocog.shared.protocol import CONTRACT_VERSION, MODEL_META_KEY
 
 if TYPE_CHECKING:
     from robocog.server.session import RobotSession
@@ -43,7 +58,8 @@ T = TypeVar("T")
 INSTRUCTIONS = (
     "A simulated household robot (PyBullet): a mobile manipulator in a kitchen, hallway and living room. "
     "Drive it with look_around, move_to, grab and place; think on the scratchpad; search episodic memory "
-    "for past experiences; finish every task with end_task. The robot_system prompt explains the method."
+    "for past experiences; finish every task with end_task. The robot_system prompt explains the method. "
+    f"robocog MCP contract {CONTRACT_VERSION}."
 )
 
 
@@ -54,6 +70,7 @@ class AppState:
 
     lock: anyio.Lock = field(default_factory=anyio.Lock)
     ready: anyio.Event = field(default_factory=anyio.Event)
+    clients: Clients = field(default_factory=Clients)
     _session: RobotSession | None = None
     failure: str | None = None
 
@@ -121,7 +138,16 @@ def register_tool(mcp: MCPServer[AppState], tool: Tool[Any]) -> None:
     async def handler(ctx: Context[AppState], **arguments: Any) -> CallToolResult:
         state = ctx.request_context.lifespan_context
         caller = Caller(progress=_progress(ctx), model=_model_label(ctx))
-        result = await state.run(lambda session: session.invoke(tool, arguments, caller))
+        records: list[LogEntry] = []
+        try:
+            with collecting(records.append):
+                result = await state.run(lambda session: session.invoke(tool, arguments, caller))
+        finally:
+            await state.clients.send(ctx.request_context, records)
+        if tool.changes_world and getattr(result, "status", None) != "failure":
+            await state.clients.world_changed()
+            for uri in WORLD_RESOURCES:  # clients on 2026-07-28 and later listen on subscriptions/listen
+                await ctx.notify_resource_updated(uri)
         return _tool_result(result)
 
     keyword = inspect.Parameter.KEYWORD_ONLY
@@ -182,6 +208,28 @@ def register_resources(mcp: MCPServer[AppState], current: _Current) -> None:
         s = current.get()
         return await s.run(lambda session: describe(session.world))
 
+    @mcp.resource(
+        "robocog://objects/{name}",
+        name="object",
+        title="One object (ground truth)",
+        description="Ground truth of one object: where it is (on a place position, held or loose), its pose, "
+        "whether it rests, and whether the robot can grasp it. Completions offer the scene's objects.",
+        mime_type="application/json",
+    )
+    async def object_truth(name: str) -> str:
+        return json.dumps(await current.get().run(lambda session: object_json(session, name)), indent=2)
+
+    @mcp.resource(
+        "robocog://locations/{name}",
+        name="location",
+        title="One location (ground truth)",
+        description="Ground truth of one location: its coordinates and neighbours, its place positions and what "
+        "rests on each, the objects there, and whether the robot is there. Completions offer the scene's locations.",
+        mime_type="application/json",
+    )
+    async def location_truth(name: str) -> str:
+        return json.dumps(await current.get().run(lambda session: location_json(session, name)), indent=2)
+
     @mcp.resource("robocog://tasks", name="tasks", title="Task catalogue", mime_type="application/json")
     async def tasks() -> str:
         """The tasks the server can check, with their prompts and success conditions."""
@@ -190,9 +238,40 @@ def register_resources(mcp: MCPServer[AppState], current: _Current) -> None:
         return json.dumps([t.model_dump(mode="json") for t in task_catalogue().values()], indent=2)
 
 
+def object_json(session: RobotSession, name: str) -> dict[str, Any]:
+    world = session.world
+    if name not in world.object_names:
+        raise ResourceNotFoundError(f"there is no object called {name!r}; objects: {', '.join(world.object_names)}")
+    return world.placement(name).model_dump(mode="json") | {"graspable": world.object_spec(name).graspable}
+
+
+def location_json(session: RobotSession, name: str) -> dict[str, Any]:
+    world = session.world
+    points = world.map.points
+    if name not in points:
+        raise ResourceNotFoundError(f"there is no location called {name!r}; locations: {', '.join(points)}")
+    state = world.state()
+    x, y = points[name]
+    return {
+        "name": name,
+        "x": x,
+        "y": y,
+        "neighbours": world.map.neighbours[name],
+        "robot_here": state.robot.location == name,
+        "place_positions": [
+            {"position": p.position, "occupied_by": p.occupied_by} for p in state.positions if p.location == name
+        ],
+        "objects": [o.object for o in state.objects if o.location == name and o.state != "held"],
+    }
+
+
 def robot_system_prompt(name: str = "robot_system") -> str:
     """A system prompt for an agent driving the robot: `robot_system` (ours) or `robot_system_paper`."""
     return (ASSETS_DIR / "prompts" / f"{name}.md").read_text(encoding="utf-8").strip()
+
+
+#: The `bring` prompt's text.
+BRING = "Bring the {object} to {location}."
 
 
 def register_prompts(mcp: MCPServer[AppState]) -> None:
@@ -210,6 +289,14 @@ def register_prompts(mcp: MCPServer[AppState]) -> None:
     def robot_system_paper() -> str:
         return robot_system_prompt("robot_system_paper")
 
+    @mcp.prompt(name="bring", title="Bring an object to a location")
+    def bring(
+        object: Annotated[str, Field(description="An object the robot can carry, e.g. 'mug'")],
+        location: Annotated[str, Field(description="A location, e.g. 'Kitchen Table'")],
+    ) -> str:
+        """Ask the robot to bring one object to one location."""
+        return BRING.format(object=object, location=location)
+
     from robocog.server.world.tasks import task_catalogue
 
     for task in task_catalogue().values():
@@ -221,6 +308,58 @@ def register_prompts(mcp: MCPServer[AppState]) -> None:
             return task_prompt
 
         mcp.prompt(name=task.id, title=f"{task.id}: {task.title}", description=task.prompt)(make(task.prompt))
+
+
+def complete_names(names: list[str], typed: str) -> Completion:
+    """`names` that begin with `typed` (case-insensitive), then those with a later word that does."""
+    prefix = typed.casefold()
+    first = [n for n in names if n.casefold().startswith(prefix)]
+    later = [n for n in names if n not in first and any(w.startswith(prefix) for w in n.casefold().split()[1:])]
+    values = first + later
+    return Completion(values=values[:100], total=len(values), has_more=len(values) > 100)
+
+
+def register_completions(mcp: MCPServer[AppState], current: _Current) -> None:
+    """Argument values for the resource templates and the prompts, from the scene."""
+
+    @mcp.completion()
+    async def complete(
+        ref: PromptReference | ResourceTemplateReference, argument: CompletionArgument, _: CompletionContext | None
+    ) -> Completion | None:
+        world = (await current.get().wait_ready()).world
+        objects, locations = world.object_names, list(world.map.points)
+        graspable = [n for n in objects if world.object_spec(n).graspable]
+        choices: dict[tuple[str, str], list[str]] = {
+            ("robocog://objects/{name}", "name"): objects,
+            ("robocog://locations/{name}", "name"): locations,
+            ("bring", "object"): graspable,
+            ("bring", "location"): locations,
+        }
+        key = ref.uri if isinstance(ref, ResourceTemplateReference) else ref.name
+        names = choices.get((key, argument.name))
+        return None if names is None else complete_names(names, argument.value)
+
+
+def register_logging_and_subscriptions(mcp: MCPServer[AppState]) -> None:
+    """`logging/setLevel`, `resources/subscribe` and `resources/unsubscribe` (see `clients.py`).
+    MCPServer has no decorator for these, so they go to its low-level server."""
+
+    async def set_level(ctx: ServerRequestContext[AppState], params: SetLevelRequestParams) -> EmptyResult:
+        await ctx.lifespan_context.clients.set_level(ctx, params.level)
+        return EmptyResult()
+
+    async def subscribe(ctx: ServerRequestContext[AppState], params: SubscribeRequestParams) -> EmptyResult:
+        ctx.lifespan_context.clients.subscribe(ctx, str(params.uri))
+        return EmptyResult()
+
+    async def unsubscribe(ctx: ServerRequestContext[AppState], params: UnsubscribeRequestParams) -> EmptyResult:
+        ctx.lifespan_context.clients.unsubscribe(ctx, str(params.uri))
+        return EmptyResult()
+
+    lowlevel = mcp._lowlevel_server
+    lowlevel.add_request_handler("logging/setLevel", SetLevelRequestParams, set_level)
+    lowlevel.add_request_handler("resources/subscribe", SubscribeRequestParams, subscribe)
+    lowlevel.add_request_handler("resources/unsubscribe", UnsubscribeRequestParams, unsubscribe)
 
 
 def build_server(
@@ -238,18 +377,30 @@ def build_server(
         state = current.state = AppState()
 
         async def build() -> None:
-            # In the background: the server answers initialize and tools/list meanwhile.
-            try:
-                from robocog.server.session import RobotSession
+            # In the background: the server answers initialize and tools/list meanwhile. Its log
+            # records are kept for the clients that set a log level, now or later.
+            with collecting(state.clients.keep):
+                try:
+                    from robocog.server.session import RobotSession
 
-                session = await anyio.to_thread.run_sync(RobotSession, config)
-                await anyio.to_thread.run_sync(session.warm_up)
-                state._session = session
-            except Exception as exc:  # reported to every caller, the server keeps running
-                logger.exception("the robot session could not be built")
-                state.failure = f"{type(exc).__name__}: {exc}"
-            finally:
-                state.ready.set()
+                    started = time.monotonic()
+                    session = await anyio.to_thread.run_sync(RobotSession, config)
+                    await anyio.to_thread.run_sync(session.warm_up)
+                    state._session = session
+                    logger.info(
+                        "robot ready in %.1f s: scene %r, %d objects, %d locations, profile %s",
+                        time.monotonic() - started,
+                        session.world.scene.name,
+                        len(session.world.object_names),
+                        len(session.world.map.points),
+                        profile,
+                    )
+                except Exception as exc:  # reported to every caller, the server keeps running
+                    logger.exception("the robot session could not be built")
+                    state.failure = f"{type(exc).__name__}: {exc}"
+                finally:
+                    state.ready.set()
+            await state.clients.send_backlog()
 
         async with anyio.create_task_group() as tg:
             tg.start_soon(build)
@@ -269,8 +420,11 @@ def build_server(
         lifespan=lifespan,
         log_level=log_level,
     )
+    install_log_handlers(log_level)
     for tool in ROBOT_TOOLS + (CONTROL_TOOLS if profile == "eval" else ()):
         register_tool(mcp, tool)
     register_resources(mcp, current)
     register_prompts(mcp)
+    register_completions(mcp, current)
+    register_logging_and_subscriptions(mcp)
     return mcp

@@ -17,8 +17,11 @@ grab, place, add_to_scratchpad, view_scratchpad, end_task, search_memory; with -
 also the harness controls reset_world (with search_k, memory_labels), begin_task (an episode per
 task, optionally keeping the scratchpad), check_task and clear_memory. Resources:
 robocog://world/state, robocog://world/map, robocog://world/description (the world in words, as
-the paper's task message gives it), robocog://world/image, robocog://tasks. Prompts:
-robot_system, robot_system_paper (the paper's protocol), T1, T2.
+the paper's task message gives it), robocog://world/image, robocog://tasks; templates
+robocog://objects/{name} and robocog://locations/{name}. Prompts: robot_system,
+robot_system_paper (the paper's protocol), T1, T2, bring(object, location). Names complete from
+the scene (completion/complete); clients may set a log level (logging/setLevel) and subscribe to
+the world's resources (resources/subscribe).
 """
 
 EPILOG = """\

@@ -2,11 +2,16 @@
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
 
 MemoryLabels = Literal["believed", "verified"]
+
+#: The log level of a failed action or bad input: above info, below warning (MCP's "notice").
+NOTICE = 25
+logging.addLevelName(NOTICE, "NOTICE")
 
 
 @dataclass(frozen=True)

@@ -9,6 +9,7 @@ thread-safe: the app serialises calls (one PyBullet client, one driver).
 
 from __future__ import annotations
 
+import logging
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -16,7 +17,7 @@ from typing import Any, TypeVar
 
 from pydantic import BaseModel
 
-from robocog.server.config import MemoryLabels, SessionConfig
+from robocog.server.config import NOTICE, MemoryLabels, SessionConfig
 from robocog.server.memory.episodic import EpisodicMemory
 from robocog.server.memory.scratchpad import Scratchpad
 from robocog.server.tools.base import Caller, Tool
@@ -26,6 +27,7 @@ from robocog.shared.results import ObjectPlacement, WorldState
 from robocog.shared.tasks import TaskSpec
 
 R = TypeVar("R", bound=BaseModel)
+logger = logging.getLogger("robocog.server.session")
 
 
 @dataclass
@@ -70,6 +72,8 @@ class RobotSession:
         if self._memory is None:
             config = self.config
             self._memory = EpisodicMemory(config.data_dir, url=config.memory_url, namespace=config.namespace)
+            where = f"the Chroma server at {config.memory_url}" if config.memory_url else "embedded ChromaDB"
+            logger.info("episodic memory: %s, namespace %r", where, config.namespace)
         return self._memory
 
     def warm_up(self) -> None:
@@ -100,9 +104,15 @@ class RobotSession:
             self.episode.tool_calls += 1
         self.caller = caller or Caller()
         try:
-            return tool.run(self, **arguments)
+            result = tool.run(self, **arguments)
+        except ValueError as exc:
+            logger.log(NOTICE, "%s: bad input: %s", tool.name, exc)
+            raise
         finally:
             self.caller = Caller()
+        if getattr(result, "status", None) == "failure":
+            logger.log(NOTICE, "%s failed: %s", tool.name, getattr(result, "message", ""))
+        return result
 
     def start_episode(self, task_id: str | None = None, *, keep_scratchpad: bool = False) -> Episode:
         """A new task begins: a fresh count, the world as it is now as the baseline, no report yet,
@@ -110,6 +120,7 @@ class RobotSession:
         self.episode = Episode(number=self.episode.number + 1, baseline=self.world.placements(), task_id=task_id)
         if not keep_scratchpad:
             self.scratchpad.clear()
+        logger.info("episode %d begins%s", self.episode.number, f" (task {task_id})" if task_id else "")
         return self.episode
 
     def begin_task(self, task_id: str, *, keep_scratchpad: bool = False) -> Episode:

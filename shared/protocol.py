@@ -5,3 +5,7 @@ MODEL_META_KEY = "robocog/model"
 
 #: The eval profile's controls for harnesses: a client never offers them to the model it drives.
 CONTROL_TOOLS = frozenset({"reset_world", "begin_task", "check_task", "clear_memory"})
+
+#: The version of the published MCP contract (assets/contract/, CHANGELOG.md there). The server announces
+#: it in its instructions as "MCP contract X.Y"; `robocog contract` reads it back from there.
+CONTRACT_VERSION = "1.0"

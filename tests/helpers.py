@@ -112,9 +112,14 @@ def action_args(action: tuple[str, ...]) -> dict[str, Any]:
 # --- snapshots -----------------------------------------------------------------------------------
 
 
-def check_snapshot(name: str, value: dict[str, Any]) -> None:
-    """`value` equals tests/snapshots/NAME.json; ROBOCOG_UPDATE_SNAPSHOTS=1 rewrites the file first."""
-    path = SNAPSHOTS / f"{name}.json"
+#: The published MCP contract, one file per profile, shipped in the package (robocog.assets.contract).
+CONTRACT_DIR = Path(__file__).resolve().parent.parent / "assets" / "contract"
+
+
+def check_snapshot(name: str | Path, value: dict[str, Any]) -> None:
+    """`value` equals tests/snapshots/NAME.json (or the file at the path `name`);
+    ROBOCOG_UPDATE_SNAPSHOTS=1 rewrites the file first."""
+    path = name if isinstance(name, Path) else SNAPSHOTS / f"{name}.json"
     text = json.dumps(value, indent=2, sort_keys=True) + "\n"
     if os.environ.get("ROBOCOG_UPDATE_SNAPSHOTS") == "1":
         path.parent.mkdir(exist_ok=True)

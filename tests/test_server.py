@@ -10,10 +10,11 @@ from typing import Any
 import pytest
 from mcp import Client
 
+from robocog.agent.contract import dump_contract
 from robocog.server.app import build_server
 from robocog.server.config import SessionConfig
 from robocog.shared.protocol import CONTROL_TOOLS
-from tests.helpers import ROBOT_TOOLS, T1, T1_SEQUENCE, T2_SEQUENCE, action_args, check_snapshot
+from tests.helpers import CONTRACT_DIR, ROBOT_TOOLS, T1, T1_SEQUENCE, T2_SEQUENCE, action_args, check_snapshot
 
 pytestmark = pytest.mark.anyio
 
@@ -46,22 +47,16 @@ async def call(client: Client, tool: str, **arguments: Any) -> tuple[bool, dict[
 
 
 async def contract(client: Client) -> dict[str, Any]:
-    tools = (await client.list_tools()).tools
-    prompts = (await client.list_prompts()).prompts
-    resources = (await client.list_resources()).resources
-    return {
-        "tools": [t.model_dump(mode="json", by_alias=True, exclude_none=True) for t in tools],
-        "prompts": [p.model_dump(mode="json", by_alias=True, exclude_none=True) for p in prompts],
-        "resources": [r.model_dump(mode="json", by_alias=True, exclude_none=True) for r in resources],
-    }
+    """The canonical contract, as `robocog contract dump` prints it and the package ships it."""
+    return await dump_contract(client)
 
 
 async def test_default_profile_contract_matches_snapshot(plain_robot: Client) -> None:
-    check_snapshot("contract_default", await contract(plain_robot))
+    check_snapshot(CONTRACT_DIR / "default.json", await contract(plain_robot))
 
 
 async def test_eval_profile_contract_matches_snapshot(robot: Client) -> None:
-    check_snapshot("contract_eval", await contract(robot))
+    check_snapshot(CONTRACT_DIR / "eval.json", await contract(robot))
 
 
 async def test_default_profile_hides_the_eval_controls(plain_robot: Client) -> None:

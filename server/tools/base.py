@@ -61,6 +61,9 @@ class Tool(Generic[R]):
     kind: Literal["robot", "control"] = "robot"
     #: The description when it is not `run`'s docstring.
     doc: str | None = None
+    #: A successful call can change the world (the robot, an object): subscribers of the world's
+    #: resources are told after it.
+    changes_world: bool = False
 
     @property
     def description(self) -> str:

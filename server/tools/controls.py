@@ -99,7 +99,7 @@ def clear_memory(robot: RobotSession) -> ClearMemoryResult:
     return ClearMemoryResult(removed=removed)
 
 
-RESET_WORLD = Tool("reset_world", "Reset the world", DESTRUCTIVE, reset_world, kind="control")
+RESET_WORLD = Tool("reset_world", "Reset the world", DESTRUCTIVE, reset_world, kind="control", changes_world=True)
 BEGIN_TASK = Tool("begin_task", "Begin a task", CONTROL, begin_task, kind="control")
 CHECK_TASK = Tool("check_task", "Check a task", CONTROL, check_task, kind="control")
 CLEAR_MEMORY = Tool("clear_memory", "Clear episodic memory", DESTRUCTIVE, clear_memory, kind="control")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 from typing import TYPE_CHECKING, Annotated
 
 from pydantic import Field
@@ -11,6 +12,8 @@ from robocog.shared.results import EndTaskResult, Status
 
 if TYPE_CHECKING:
     from robocog.server.session import RobotSession
+
+logger = logging.getLogger("robocog.server.session")
 
 StatusArg = Annotated[Status, Field(description="'success' only if the task is really done, else 'failure'")]
 DescriptionArg = Annotated[str, Field(description="The task as you were given it", min_length=1)]
@@ -39,6 +42,7 @@ def end_task(robot: RobotSession, status: StatusArg, description: DescriptionArg
     )
     episode.ended = True
     episode.record_id = record.id
+    logger.info("episode %d ended: believed %s after %d tool calls", episode.number, status, episode.tool_calls)
     return EndTaskResult(
         status="success",
         message=f"Task ended with status '{status}'. The report was stored in episodic memory.",

@@ -77,4 +77,4 @@ def _out(name: str, error: Literal["not_graspable", "out_of_reach"], message: st
     return GrabResult(status="failure", error=error, message=message, object=name)
 
 
-TOOL = Tool("grab", "Grab an object", ACTION, grab)
+TOOL = Tool("grab", "Grab an object", ACTION, grab, changes_world=True)

@@ -44,4 +44,4 @@ def move_to(robot: RobotSession, location: LocationArg) -> MoveResult:
     )
 
 
-TOOL = Tool("move_to", "Move to a location", IDEMPOTENT_ACTION, move_to)
+TOOL = Tool("move_to", "Move to a location", IDEMPOTENT_ACTION, move_to, changes_world=True)

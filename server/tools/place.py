@@ -97,4 +97,4 @@ def _failure(
     )
 
 
-TOOL = Tool("place", "Place the held object", ACTION, place)
+TOOL = Tool("place", "Place the held object", ACTION, place, changes_world=True)
