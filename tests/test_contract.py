@@ -19,17 +19,8 @@ from typing import Any
 import pytest
 from mcp import Client
 
-from robocog.agent.contract import (
-    EXIT_BREAKING,
-    EXIT_OK,
-    EXIT_UNREACHABLE,
-    Change,
-    compare_contracts,
-    dump_contract,
-    report,
-    shipped_contract_path,
-    validate_structured,
-)
+from robocog.agent.contract import dump_contract, shipped_contract_path, validate_structured
+from robocog.agent.contract_diff import EXIT_BREAKING, EXIT_OK, EXIT_UNREACHABLE, Change, compare_contracts, report
 from robocog.server.testing import RobocogWorld
 from tests.helpers import CONTRACT_DIR, T1_SEQUENCE, action_args
 
@@ -62,7 +53,15 @@ def test_the_package_ships_the_contract_with_its_version_and_changelog() -> None
         path = shipped_contract_path(profile)
         assert path == CONTRACT_DIR.resolve() / f"{profile}.json"
         assert load(profile)["contract"] == CONTRACT_VERSION
-        assert set(load(profile)) == {"contract", "server", "tools", "resources", "resourceTemplates", "prompts"}
+        assert set(load(profile)) == {
+            "capabilities",
+            "contract",
+            "server",
+            "tools",
+            "resources",
+            "resourceTemplates",
+            "prompts",
+        }
     assert f"## {CONTRACT_VERSION}" in (CONTRACT_DIR / "CHANGELOG.md").read_text(encoding="utf-8")
 
 
@@ -87,6 +86,18 @@ def test_a_new_tool_is_compatible_and_a_removed_one_breaking() -> None:
     changes = compare_contracts(baseline, live)
     assert compatible(changes) == ["tool view_scratchpad: added"] and not breaking(changes)
     assert breaking(compare_contracts(live, baseline)) == ["tool view_scratchpad: removed (or renamed)"]
+
+
+def test_a_capability_removed_is_breaking_and_one_added_compatible() -> None:
+    live = load("default")
+    assert {"tools", "resources.subscribe"} <= set(live["capabilities"])
+    assert live["capabilities"] == sorted(live["capabilities"])
+    baseline = copy.deepcopy(live)
+    baseline["capabilities"] = [c for c in live["capabilities"] if c != "tools"]
+    live["capabilities"].remove("resources.subscribe")
+    changes = compare_contracts(baseline, live)
+    assert breaking(changes) == ["capability resources.subscribe: removed"]
+    assert compatible(changes) == ["capability tools: added"]
 
 
 def test_arguments_newly_required_are_breaking_and_new_optional_ones_compatible() -> None:

@@ -22,6 +22,7 @@ import litellm
 import pytest
 
 from robocog.agent import model as model_service
+from robocog.agent import model_errors
 from robocog.agent.connection import Robot, ServerSpec, connect
 from robocog.agent.loop import AgentSettings, EpisodeResult, check_credentials, run_episode
 from robocog.agent.model import PLACEHOLDER_KEY, complete, resolve_api_key
@@ -248,7 +249,7 @@ async def test_retry_after_is_capped(fake: FakeLLM, monkeypatch: pytest.MonkeyPa
     model = "anthropic/claude-fake"
     fake.reply(Fail(429, "slow down", headers={"Retry-After": "3600"}), Turn(text="ok"))
     await complete(AgentSettings(model=model, api_base=fake.api_base(model)), HELLO, [])
-    assert waits == [model_service.MAX_RETRY_AFTER_S]
+    assert waits == [model_errors.MAX_RETRY_AFTER_S]
 
 
 async def test_a_timeout_is_retried_then_an_error(robot: Robot, fake: FakeLLM) -> None:
@@ -291,7 +292,7 @@ async def test_a_cloud_model_without_a_key_is_an_error_before_any_request(robot:
     ],
 )
 def test_the_providers_message_is_read_out_of_litellms_wrapping(raw: str, message: str) -> None:
-    assert model_service.provider_message(Exception(raw)) == message
+    assert model_errors.provider_message(Exception(raw)) == message
 
 
 def test_retry_after_reads_seconds_milliseconds_and_dates() -> None:
@@ -301,11 +302,11 @@ def test_retry_after_reads_seconds_milliseconds_and_dates() -> None:
         def __init__(self, headers: dict[str, str]) -> None:
             self.litellm_response_headers = headers
 
-    assert model_service.retry_after(Limited({"Retry-After": "7"})) == 7.0
-    assert model_service.retry_after(Limited({"retry-after-ms": "1500"})) == 1.5
-    in_ten = model_service.retry_after(Limited({"Retry-After": formatdate(time.time() + 10, usegmt=True)}))
+    assert model_errors.retry_after(Limited({"Retry-After": "7"})) == 7.0
+    assert model_errors.retry_after(Limited({"retry-after-ms": "1500"})) == 1.5
+    in_ten = model_errors.retry_after(Limited({"Retry-After": formatdate(time.time() + 10, usegmt=True)}))
     assert in_ten is not None and 8 < in_ten <= 10
-    assert model_service.retry_after(Limited({})) is None
+    assert model_errors.retry_after(Limited({})) is None
 
 
 # --- usage and cost ------------------------------------------------------------------------------

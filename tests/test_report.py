@@ -22,7 +22,8 @@ from pathlib import Path
 import pytest
 
 from robocog.agent.evaluation import read_rows
-from robocog.agent.report import render, upstream_task
+from robocog.agent.report import render
+from robocog.agent.report_csv import upstream_task
 from robocog.agent.stats import Summary, TableRow, by_protocol, shorten, summarise
 from robocog.shared.evaluation import AttemptRow
 

@@ -1,0 +1,88 @@
+"""`results.csv` of a report: our columns and values, or the published implementation's encoding."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+from typing import Literal
+
+from robocog.shared.evaluation import AttemptRow
+
+#: `results.csv`: ours (booleans, our task ids and trial numbers) or the published encoding.
+CsvFormat = Literal["ours", "upstream"]
+
+UPSTREAM_COLUMNS = (
+    "Model",
+    "Memory",
+    "Task",
+    "Trial",
+    "Invokes",
+    "Toolcalls",
+    "Belief",
+    "Truth",
+    "Accuracy",
+    "Stopped",
+)
+
+#: Our task ids as the published implementation numbers its tasks; any other id is written as it is.
+UPSTREAM_TASKS = {"T1": "1", "T2": "2"}
+
+
+def write_csv(rows: list[AttemptRow], path: Path) -> None:
+    """Every attempt (errored ones too) in the published implementation's columns, with our values:
+    booleans, our task ids, trials from 0."""
+    with path.open("w", newline="", encoding="utf-8") as f:
+        w = csv.writer(f)
+        w.writerow(UPSTREAM_COLUMNS)
+        for r in rows:
+            w.writerow(
+                [
+                    r.model,
+                    r.memory_iteration,
+                    r.task,
+                    r.trial,
+                    r.invocations,
+                    r.tool_calls,
+                    r.believed_success is True,
+                    r.true_success,
+                    r.agreement,
+                    r.stopped,
+                ]
+            )
+
+
+def upstream_task(task: str) -> str:
+    """A task id as the published implementation writes it: T1 -> 1, T2 -> 2, others unchanged."""
+    return UPSTREAM_TASKS.get(task, task)
+
+
+def write_upstream_csv(rows: list[AttemptRow], path: Path) -> int:
+    """The published encoding, so its plotting script can read our rows: 0/1 values, tasks as
+    integers (`upstream_task`), trials from 1, memory iterations from 0, Belief 1 only for an
+    end_task status of success, Accuracy = Belief equals Truth, Stopped 1 for a refusal. Errored
+    attempts are left out (the published code has no such outcome). Returns the rows written."""
+    written = 0
+    with path.open("w", newline="", encoding="utf-8") as f:
+        w = csv.writer(f)
+        w.writerow(UPSTREAM_COLUMNS)
+        for r in rows:
+            if r.outcome == "error":
+                continue
+            belief = int(r.believed_success is True)
+            truth = int(r.true_success)
+            w.writerow(
+                [
+                    r.model,
+                    r.memory_iteration,
+                    upstream_task(r.task),
+                    r.trial + 1,
+                    r.invocations,
+                    r.tool_calls,
+                    belief,
+                    truth,
+                    int(belief == truth),
+                    int(r.outcome == "stopped"),
+                ]
+            )
+            written += 1
+    return written
