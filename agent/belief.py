@@ -12,6 +12,8 @@ from collections import deque
 from dataclasses import dataclass, field
 from typing import Any
 
+from robocog.agent.protocols import task_of
+
 UNGRASPABLE_NOTE = "Objects that cannot be grasped:"
 
 
@@ -107,38 +109,21 @@ def as_dict(message: Any) -> dict[str, Any]:
     return dict(message)
 
 
-def _parse_json(text: Any) -> dict[str, Any] | None:
-    if isinstance(text, list):  # content blocks
-        text = "".join(b.get("text", "") for b in text if isinstance(b, dict))
-    if not isinstance(text, str):
+def _parse_json(content: Any) -> dict[str, Any] | None:
+    if content is None:
         return None
     try:
-        value = json.loads(text)
+        value = json.loads(_plain(content))
     except json.JSONDecodeError:
         return None
     return value if isinstance(value, dict) else None
 
 
-_TASK_TAG = re.compile(r"<task>(.*?)</task>", re.S)
-_REMINDER = re.compile(r"The task is not finished: .*? The task is: (.*)\n", re.S)
-
-
 def _plain(content: Any) -> str:
+    """A message's content as text (content blocks joined)."""
     if isinstance(content, list):  # content blocks
         return "".join(str(b.get("text", "")) for b in content if isinstance(b, dict))
     return str(content or "")
-
-
-def task_of(message: str) -> str:
-    """The task a user message gives: the `<task>` block of the paper's message (which carries the
-    environment description), the task a reminder restates, or the whole message."""
-    tagged = _TASK_TAG.findall(message)
-    if tagged:
-        return str(tagged[-1]).strip()
-    reminder = _REMINDER.search(message)
-    if reminder:
-        return reminder.group(1).strip()
-    return message.strip()
 
 
 def read_history(messages: list[Any]) -> History:

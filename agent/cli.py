@@ -185,7 +185,7 @@ def _server_spec(args: argparse.Namespace) -> ServerSpec:
 def _preload_litellm(model: str) -> threading.Thread:
     """Import LiteLLM and what the model's route loads (seconds) on a thread while the server starts."""
 
-    from robocog.agent.loop import warm_up_litellm
+    from robocog.agent.model import warm_up_litellm
 
     thread = threading.Thread(target=warm_up_litellm, args=([model],), daemon=True)
     thread.start()
@@ -195,7 +195,8 @@ def _preload_litellm(model: str) -> threading.Thread:
 async def _run_tasks(args: argparse.Namespace, tasks: Sequence[str] | None, loader: threading.Thread | None) -> int:
     """Run `tasks` in order (or, when None, the tasks typed at the prompt) in one world."""
     from robocog.agent.connection import connect
-    from robocog.agent.loop import check_credentials, finish, run_episode
+    from robocog.agent.loop import finish, run_episode
+    from robocog.agent.model import check_credentials
     from robocog.agent.trace import Trace, make_console
     from robocog.shared.errors import ModelServiceError
     from robocog.shared.trace import Verdict
@@ -274,7 +275,7 @@ def _ask() -> str | None:
 
 def _bench(args: argparse.Namespace) -> int:
     from robocog.agent.bench import bench
-    from robocog.agent.loop import warm_up_litellm
+    from robocog.agent.model import warm_up_litellm
     from robocog.shared.errors import ConfigError, ModelServiceError
 
     settings = _settings(args)

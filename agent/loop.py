@@ -18,8 +18,6 @@ from mcp import Client
 from mcp_types import RequestParamsMeta, Tool
 
 from robocog.agent.model import assistant_message, complete, usage
-from robocog.agent.model import check_credentials as check_credentials  # re-exported for callers
-from robocog.agent.model import warm_up_litellm as warm_up_litellm  # re-exported for callers
 from robocog.agent.protocols import DESCRIPTION_URI, PROTOCOLS, EvalProtocol
 from robocog.agent.trace import Trace
 from robocog.shared.errors import ModelServiceError, ServerConnectionError

@@ -13,6 +13,7 @@ Sampling is per model, in the study config (the paper ran the open-weight models
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from typing import Literal
 
@@ -50,6 +51,22 @@ class EvalProtocol:
             f"{description}\n\nYou currently have the following task:\n<task>{task}</task>\n"
             "Use your tools to carry it out, or call end_task to report on it and receive the next task."
         )
+
+
+_TASK_TAG = re.compile(r"<task>(.*?)</task>", re.S)
+_REMINDER = re.compile(r"The task is not finished: .*? The task is: (.*)\n", re.S)
+
+
+def task_of(message: str) -> str:
+    """The task a user message gives, read back from what the messages above write: the `<task>`
+    block of the paper's message, the task a reminder restates, or the whole message."""
+    tagged = _TASK_TAG.findall(message)
+    if tagged:
+        return str(tagged[-1]).strip()
+    reminder = _REMINDER.search(message)
+    if reminder:
+        return reminder.group(1).strip()
+    return message.strip()
 
 
 PROTOCOLS: dict[ProtocolName, EvalProtocol] = {

@@ -19,7 +19,8 @@ from litellm import CustomLLM, ModelResponse
 from mcp import Client
 
 from robocog.agent.connection import Robot, ServerSpec, connect
-from robocog.agent.loop import AgentSettings, check_credentials, function_definitions, run_episode
+from robocog.agent.loop import AgentSettings, function_definitions, run_episode
+from robocog.agent.model import check_credentials
 from robocog.agent.providers import _response, register
 from robocog.agent.trace import Trace
 from robocog.server.app import build_server

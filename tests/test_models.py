@@ -24,8 +24,8 @@ import pytest
 from robocog.agent import model as model_service
 from robocog.agent import model_errors
 from robocog.agent.connection import Robot, ServerSpec, connect
-from robocog.agent.loop import AgentSettings, EpisodeResult, check_credentials, run_episode
-from robocog.agent.model import PLACEHOLDER_KEY, complete, resolve_api_key
+from robocog.agent.loop import AgentSettings, EpisodeResult, run_episode
+from robocog.agent.model import PLACEHOLDER_KEY, check_credentials, complete, resolve_api_key
 from robocog.agent.trace import Trace
 from robocog.shared.errors import ModelServiceError
 from robocog.shared.evaluation import ModelSpec
