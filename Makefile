@@ -16,7 +16,7 @@ help: ## Show this help
 $(STAMP): pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e ".[dev]"
+	$(BIN)/python -m pip install --quiet -e ".[dev,inspect]"
 	@touch $(STAMP)
 
 # Type checkers cannot follow setuptools' editable finder through our package-dir mapping, so mypy
@@ -26,6 +26,7 @@ TYPES := build/typecheck/robocog
 $(TYPES):
 	@mkdir -p $(TYPES)
 	@for d in shared server agent assets; do ln -sfn ../../../$$d $(TYPES)/$$d; done
+	@ln -sfn ../../../integrations/inspect $(TYPES)/inspect
 
 demo: $(STAMP) ## The scripted planner does T1 then T2 through MCP; prints the trace and the ground truth
 	@rm -rf .demo-memory
@@ -44,7 +45,7 @@ bench: $(STAMP) ## Print the performance figures as JSON
 lint: $(STAMP) $(TYPES) ## ruff check + format check, then mypy (shared strict; server, agent, tests)
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
-	$(BIN)/mypy -p robocog.shared -p robocog.server -p robocog.agent -p tests
+	$(BIN)/mypy -p robocog.shared -p robocog.server -p robocog.agent -p robocog.inspect -p tests
 
 format: $(STAMP) ## Format the code with ruff
 	$(BIN)/ruff check --fix .
