@@ -5,6 +5,35 @@ from __future__ import annotations
 import argparse
 import asyncio
 import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+
+def flag_values(argv: Sequence[str], flag: str) -> list[str]:
+    """The values given to `flag` in a command line (`--flag VALUE` or `--flag=VALUE`)."""
+    values = []
+    for i, arg in enumerate(argv):
+        if arg == flag and i + 1 < len(argv):
+            values.append(argv[i + 1])
+        elif arg.startswith(flag + "="):
+            values.append(arg.partition("=")[2])
+    return values
+
+
+def check_server_args(argv: Sequence[str], *, data_dir: bool, where: str) -> None:
+    """Check the robocog-server arguments of a server the client will spawn, before spawning it:
+    its `--scene` (and the files that scene names), and no `--memory-url` where a `--data-dir` is
+    also given. `where` names the arguments' origin in the error ("--server-cmd", "study.yaml: server_args")."""
+    from robocog.shared.errors import ConfigError
+    from robocog.shared.scene import load_scene
+
+    for scene in flag_values(argv, "--scene"):
+        load_scene(Path(scene))
+    if data_dir and flag_values(argv, "--memory-url"):
+        raise ConfigError(
+            f"{where}: --memory-url cannot be used together with --data-dir: the server either keeps "
+            "embedded memory in a directory or uses a Chroma server; give one"
+        )
 
 
 def eval_command(args: argparse.Namespace) -> int:
@@ -12,6 +41,61 @@ def eval_command(args: argparse.Namespace) -> int:
     import shlex
 
     from pydantic import ValidationError
+
+    from robocog.shared.errors import ConfigError, ModelServiceError, ServerConnectionError
+    from robocog.shared.evaluation import AttemptRow, EvalConfig, load_config
+
+    ray_address = getattr(args, "ray", None)
+    if ray_address is not None:
+        import importlib.util
+
+        if importlib.util.find_spec("ray") is None:  # the optional extra (robocog.agent.distributed.NEEDS_RAY)
+            print("robocog: --ray needs Ray: pip install 'robocog[ray]'", file=sys.stderr)
+            return 2
+    try:
+        config = load_config(args.config)
+    except ConfigError as exc:
+        print(f"robocog: {exc}", file=sys.stderr)
+        return 2
+    overrides = {
+        "trials": args.trials,
+        "memory_iterations": args.memory_iterations,
+        "protocol": args.protocol,
+        "workers": args.workers,
+    }
+    updates = {k: v for k, v in overrides.items() if v is not None}
+    try:  # validated exactly as the same values in the file would be
+        config = EvalConfig.model_validate({**config.model_dump(), **updates})
+    except ValidationError as exc:
+        problem = exc.errors()[0]
+        flag = "--" + str(problem["loc"][0]).replace("_", "-")
+        print(f"robocog: {flag}: {problem['msg']}", file=sys.stderr)
+        return 2
+    try:  # every worker's server gets these: a bad one would fail each of them at start
+        command = shlex.split(args.server_cmd or "")
+        origins = ((config.server_args, f"{args.config}: server_args"), (command, "--server-cmd"))
+        for argv, where in origins:
+            # The harness gives each worker's server its own --data-dir.
+            check_server_args(argv, data_dir=True, where=where)
+            if flag_values(argv, "--data-dir"):
+                raise ConfigError(f"{where}: --data-dir is set per worker by the harness; drop it")
+    except ValueError as exc:  # ConfigError, or shlex's unbalanced quotes
+        print(f"robocog: {exc if isinstance(exc, ConfigError) else f'--server-cmd: {exc}'}", file=sys.stderr)
+        return 2
+    if args.out is not None:
+        out, origin = args.out, "--out"
+    elif config.out is not None:
+        out, origin = (args.config.parent / config.out).resolve(), f"{args.config}: out"
+    else:
+        print("robocog: no results file: give --out or set `out` in the config", file=sys.stderr)
+        return 2
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        print(f"robocog: {origin}: cannot create {out.parent}: {exc.strerror or exc}", file=sys.stderr)
+        return 2
+    server = shlex.split(args.server_cmd) if args.server_cmd else None
+    # Imported once the config holds (the MCP client takes seconds to import).
     from rich.progress import (
         BarColumn,
         MofNCompleteColumn,
@@ -22,34 +106,7 @@ def eval_command(args: argparse.Namespace) -> int:
     from rich.progress import Progress as ProgressBar
 
     from robocog.agent.evaluation import Progress, errored, run_eval, summary_line
-    from robocog.shared.errors import ConfigError, ModelServiceError, ServerConnectionError
-    from robocog.shared.evaluation import AttemptRow, EvalConfig, load_config
 
-    try:
-        config = load_config(args.config)
-    except ConfigError as exc:
-        print(f"robocog: {exc}", file=sys.stderr)
-        return 2
-    overrides = {"trials": args.trials, "memory_iterations": args.memory_iterations, "protocol": args.protocol}
-    updates = {k: v for k, v in overrides.items() if v is not None}
-    try:  # validated exactly as the same values in the file would be
-        config = EvalConfig.model_validate({**config.model_dump(), **updates})
-    except ValidationError as exc:
-        problem = exc.errors()[0]
-        flag = "--" + str(problem["loc"][0]).replace("_", "-")
-        print(f"robocog: {flag}: {problem['msg']}", file=sys.stderr)
-        return 2
-    if args.workers is not None and args.workers < 1:
-        print("robocog: --workers: must be at least 1", file=sys.stderr)
-        return 2
-    if args.out is not None:
-        out = args.out
-    elif config.out is not None:
-        out = (args.config.parent / config.out).resolve()
-    else:
-        print("robocog: no results file: give --out or set `out` in the config", file=sys.stderr)
-        return 2
-    server = shlex.split(args.server_cmd) if args.server_cmd else None
     with ProgressBar(
         TextColumn("[bold]{task.description}"),
         BarColumn(),
@@ -75,11 +132,12 @@ def eval_command(args: argparse.Namespace) -> int:
                 run_eval(
                     config,
                     out,
-                    workers=args.workers,
+                    workers=config.workers,
                     resume=args.resume,
                     server_command=server,
                     on_progress=show,
                     on_error=warn,
+                    ray_address=ray_address,
                 )
             )
         except (ConfigError, ModelServiceError, ServerConnectionError) as exc:
@@ -110,7 +168,9 @@ def report_command(args: argparse.Namespace) -> int:
             rows, args.out, title=args.title or f"robocog evaluation: {args.results.name}", csv_format=args.csv
         )
     except (FileNotFoundError, ValueError, ValidationError) as exc:
-        print(f"robocog: {args.results}: {exc}", file=sys.stderr)
+        problem = " ".join(str(exc).split())  # one line
+        named = problem.startswith(f"{args.results}: ")  # read_rows' errors name the file already
+        print(f"robocog: {problem if named else f'{args.results}: {problem}'}", file=sys.stderr)
         return 2
     print(f"report: {path}")
     return 0

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import logging
 import time
+import uuid
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any, TypeVar
@@ -32,16 +33,21 @@ logger = logging.getLogger("robocog.server.session")
 
 @dataclass
 class Episode:
-    """The bookkeeping of one task: its number, its calls, and where everything was at its start."""
+    """The bookkeeping of one task: its number and id, its calls, and where everything was at its start."""
 
     number: int
     baseline: dict[str, ObjectPlacement]
     #: The task a harness began the episode for (`begin_task`); None when it began implicitly.
     task_id: str | None = None
+    #: Stored with its memory record, whose id derives from it: a harness that retries an attempt
+    #: under the same id (even on a new server) replaces the record instead of adding a second.
+    id: str = field(default_factory=lambda: uuid.uuid4().hex)
     started: float = field(default_factory=time.monotonic)
     tool_calls: int = 0
     ended: bool = False
     record_id: str | None = None
+    #: The arguments of the end_task that ended the episode: the same again is a retry of that call.
+    report: dict[str, Any] | None = None
 
     @property
     def duration_s(self) -> float:
@@ -97,9 +103,11 @@ class RobotSession:
 
     def invoke(self, tool: Tool[R], arguments: Mapping[str, Any], caller: Caller | None = None) -> R:
         """Run one tool for `caller` (a progress sink, the model's label); a robot tool counts as one
-        of the episode's calls, and the first after end_task begins a new episode."""
+        of the episode's calls, and the first after end_task begins a new episode, unless it is the same
+        end_task again (a retry of a call whose answer was lost: it answers for the episode that ended)."""
         if tool.counts_as_episode_call:
-            if self.episode.ended:
+            retry = tool.ends_episode and self.episode.report == dict(arguments)
+            if self.episode.ended and not retry:
                 self.start_episode()
             self.episode.tool_calls += 1
         self.caller = caller or Caller()
@@ -114,20 +122,25 @@ class RobotSession:
             logger.log(NOTICE, "%s failed: %s", tool.name, getattr(result, "message", ""))
         return result
 
-    def start_episode(self, task_id: str | None = None, *, keep_scratchpad: bool = False) -> Episode:
+    def start_episode(
+        self, task_id: str | None = None, *, keep_scratchpad: bool = False, episode_id: str | None = None
+    ) -> Episode:
         """A new task begins: a fresh count, the world as it is now as the baseline, no report yet,
-        and an empty scratchpad unless `keep_scratchpad`."""
+        an empty scratchpad unless `keep_scratchpad`, and the id `episode_id` (default: a new one)."""
         self.episode = Episode(number=self.episode.number + 1, baseline=self.world.placements(), task_id=task_id)
+        if episode_id is not None:
+            self.episode.id = episode_id
         if not keep_scratchpad:
             self.scratchpad.clear()
         logger.info("episode %d begins%s", self.episode.number, f" (task {task_id})" if task_id else "")
         return self.episode
 
-    def begin_task(self, task_id: str, *, keep_scratchpad: bool = False) -> Episode:
+    def begin_task(self, task_id: str, *, keep_scratchpad: bool = False, episode_id: str | None = None) -> Episode:
         """Begin the episode of task `task_id` explicitly (a harness does, before the task's first
-        call), so it is judged against the world as it is now even if the model never acts."""
+        call), so it is judged against the world as it is now even if the model never acts; a harness
+        gives `episode_id` to make a retry of the attempt store one memory record, not two."""
         self.task(task_id)
-        return self.start_episode(task_id, keep_scratchpad=keep_scratchpad)
+        return self.start_episode(task_id, keep_scratchpad=keep_scratchpad, episode_id=episode_id)
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> WorldState:
         """Back to the start state and a new episode (episodic memory is kept: that is the point of it)."""

@@ -12,7 +12,10 @@ class MemoryRecord(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    id: str = Field(description="Unique id of the record (uuid4 hex).")
+    id: str = Field(
+        description="Unique id of the record (uuid hex): derived from `episode` when there is one (an "
+        "episode has one record), else random."
+    )
     task_description: str = Field(description="The task as it was given to the robot; the embedded, searchable text.")
     believed_status: Status = Field(description="Whether the agent believed it succeeded at the task.")
     summary: str = Field(description="The agent's own summary of what it did and learned.")

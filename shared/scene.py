@@ -3,17 +3,24 @@
 A scene names rooms, walls, semantic locations joined by edges, furniture built from boxes,
 place positions (regions on a support surface where objects may rest) and the movable objects
 with their start state. Users add a location or an object by editing YAML; a malformed file
-raises `ConfigError` naming the file, the field and the problem.
+raises `ConfigError` naming the file, the field and the problem on one line
+(`scene.yaml: edges[7]: 'Attic' is not a location`). Loading a scene also checks the files it
+refers to (the robot description, its arm's URDF, objects' URDFs) where the world will look for them.
 """
 
 from __future__ import annotations
 
+import math
+import re
 from pathlib import Path
-from typing import Annotated, Literal, TypeVar
+from typing import Annotated, Any, Literal, TypeVar
 
+import pybullet_data
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic_core import ErrorDetails
 
+from robocog.assets import ASSETS_DIR
 from robocog.shared.errors import ConfigError
 
 Vec2 = tuple[float, float]
@@ -24,7 +31,7 @@ M = TypeVar("M", bound=BaseModel)
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 class Room(_Strict):
@@ -64,7 +71,7 @@ class Box(_Strict):
     @model_validator(mode="after")
     def _positive(self) -> Box:
         if min(self.size) <= 0:
-            raise ValueError("size must be positive in x, y and z")
+            raise ValueError("size: must be positive in x, y and z")
         return self
 
 
@@ -117,9 +124,9 @@ class SceneObject(_Strict):
     @model_validator(mode="after")
     def _urdf_given(self) -> SceneObject:
         if (self.shape == "urdf") != (self.urdf is not None):
-            raise ValueError("shape 'urdf' needs a urdf path, and a urdf path needs shape 'urdf'")
+            raise ValueError("urdf: shape 'urdf' needs a urdf path, and a urdf path needs shape 'urdf'")
         if min(self.size) <= 0:
-            raise ValueError("size must be positive in x, y and z")
+            raise ValueError("size: must be positive in x, y and z")
         return self
 
 
@@ -159,7 +166,7 @@ class Scene(_Strict):
         _unique("furniture", [f.name for f in self.furniture])
         known = set(names)
         if self.robot_start not in known:
-            raise ValueError(f"robot_start {self.robot_start!r} is not a location (known: {sorted(known)})")
+            raise ValueError(f"robot_start: {self.robot_start!r} is not a location (known: {sorted(known)})")
         for i, (a, b) in enumerate(self.edges):
             for end in (a, b):
                 if end not in known:
@@ -178,14 +185,28 @@ class Scene(_Strict):
             if key in seen:
                 raise ValueError(f"place_positions[{i}]: {pos.location} / {pos.name} is defined twice")
             seen.add(key)
+        taken: dict[tuple[str, str | None], str] = {}
         for i, obj in enumerate(self.objects):
             start = obj.start
-            if start.location is not None and (start.location, start.position) not in seen:
+            if start.location is None:
+                continue
+            spot = (start.location, start.position)
+            if spot not in seen:
                 raise ValueError(
                     f"objects[{i}] ({obj.name}): start position {start.location} / {start.position} "
                     "is not a place position"
                 )
+            if spot in taken:
+                raise ValueError(
+                    f"objects[{i}] ({obj.name}): start position {start.location} / {start.position} "
+                    f"is already taken by {taken[spot]}"
+                )
+            taken[spot] = obj.name
         return self
+
+    def robot_file(self) -> Path:
+        """The robot description this scene names (relative paths are inside assets/)."""
+        return ASSETS_DIR / self.robot
 
     def location(self, name: str) -> Location:
         """The location called `name` (exact)."""
@@ -201,26 +222,137 @@ def _unique(what: str, names: list[str]) -> None:
         raise ValueError(f"{what}: duplicate names {dupes}")
 
 
-def load_yaml_model(path: Path, model: type[M]) -> M:
-    """Read `path` as YAML and validate it as `model`; errors name the file, the field and the problem."""
+#: Most pydantic problems one error line lists before "and N more".
+_MAX_PROBLEMS = 3
+# A model validator's message that starts with the field it is about: "edges[7]: ..." or
+# "objects[0] (cube): ...".
+_FIELD_FIRST = re.compile(r"^[A-Za-z_]\w*(\[\d+\])*(\.[A-Za-z_]\w*(\[\d+\])*)*( \([^()]*\))?: ")
+
+
+def field_path(loc: tuple[int | str, ...]) -> str:
+    """A pydantic location as the file's field: ("edges", 7, "x") -> "edges[7].x"."""
+    out = ""
+    for part in loc:
+        out += f"[{part}]" if isinstance(part, int) else f".{part}" if out else str(part)
+    return out
+
+
+def _problem(err: ErrorDetails) -> str:
+    """One pydantic error as "field: problem"; a model validator's "field: problem" keeps its field."""
+    where = field_path(err["loc"])
+    msg = err["msg"]
+    if err["type"] == "value_error":
+        msg = msg.removeprefix("Value error, ")
+        if _FIELD_FIRST.match(msg):
+            return f"{where}.{msg}" if where else msg
+    return f"{where}: {msg}" if where else msg
+
+
+def validation_problems(exc: ValidationError) -> str:
+    """A pydantic `ValidationError` as one line: "field: problem; field: problem"."""
+    problems = [_problem(err) for err in exc.errors()]
+    more = len(problems) - _MAX_PROBLEMS
+    return "; ".join(problems[:_MAX_PROBLEMS]) + (f"; and {more} more" if more > 0 else "")
+
+
+def _non_finite(data: Any, where: str = "") -> str | None:
+    """The field of the first NaN or infinite number in YAML data (`.nan`, `.inf`), if any."""
+    seen: set[int] = set()  # YAML aliases share nodes: visit each container once
+    stack: list[tuple[Any, str]] = [(data, where)]
+    while stack:
+        node, at = stack.pop()
+        if isinstance(node, float) and not math.isfinite(node):
+            return at
+        if isinstance(node, dict | list) and id(node) not in seen:
+            seen.add(id(node))
+            items = node.items() if isinstance(node, dict) else enumerate(node)
+            children = [(v, f"{at}[{k}]" if isinstance(k, int) else f"{at}.{k}" if at else str(k)) for k, v in items]
+            stack.extend(reversed(children))
+    return None
+
+
+def read_yaml(path: Path) -> Any:
+    """The YAML data of `path`; `ConfigError` (one line: file, where, problem) when it cannot be read."""
     try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
+        raw = path.read_bytes()
     except FileNotFoundError as exc:
         raise ConfigError(f"{path}: file not found") from exc
+    except IsADirectoryError as exc:
+        raise ConfigError(f"{path}: is a directory, not a file") from exc
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot be read: {exc.strerror or exc}") from exc
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = raw[: exc.start].count(b"\n") + 1
+        raise ConfigError(
+            f"{path}: line {line}: not UTF-8 text (byte 0x{raw[exc.start]:02x}); save the file as UTF-8"
+        ) from exc
+    try:
+        return yaml.safe_load(text)
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark or exc.context_mark
+        where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark is not None else ""
+        problem = exc.problem or exc.context or "syntax error"
+        raise ConfigError(f"{path}: {where}not valid YAML: {problem}") from exc
     except yaml.YAMLError as exc:
-        raise ConfigError(f"{path}: not valid YAML: {exc}") from exc
+        raise ConfigError(f"{path}: not valid YAML: {' '.join(str(exc).split())}") from exc
+    except RecursionError as exc:
+        raise ConfigError(f"{path}: not valid YAML: nested too deeply") from exc
+
+
+def load_yaml_model(path: Path, model: type[M]) -> M:
+    """Read `path` as YAML and validate it as `model`; errors name the file, the field and the problem.
+
+    Every error is one line, `FILE: FIELD: problem` (`FILE: line L, column C: ...` for YAML syntax).
+    """
+    data = read_yaml(path)
+    if not isinstance(data, dict):
+        got = "an empty file" if data is None else f"a {type(data).__name__}"
+        raise ConfigError(f"{path}: expected a mapping of fields (name: value), got {got}")
+    bad = _non_finite(data)
+    if bad is not None:
+        raise ConfigError(f"{path}: {bad}: must be a finite number, not NaN or infinity")
     try:
         return model.model_validate(data)
     except ValidationError as exc:
-        problems = "; ".join(
-            f"{'.'.join(str(p) for p in err['loc']) or '(top level)'}: {err['msg']}" for err in exc.errors()
-        )
-        raise ConfigError(f"{path}: {problems}") from exc
+        raise ConfigError(f"{path}: {validation_problems(exc)}") from exc
+
+
+def resolve_urdf(urdf: str) -> Path:
+    """Where a URDF named in a scene or robot file lives: absolute, or a path inside pybullet_data.
+
+    The validator and the world builder both find URDFs through this one function.
+    """
+    path = Path(urdf)
+    return path if path.is_absolute() else Path(pybullet_data.getDataPath()) / path
+
+
+def _urdf_problem(urdf: str) -> str | None:
+    path = resolve_urdf(urdf)
+    if path.is_file():
+        return None
+    inside = "" if Path(urdf).is_absolute() else f" in pybullet_data ({pybullet_data.getDataPath()})"
+    return f"{urdf!r}: no such file{inside}"
+
+
+def revolute_joint_pattern(joint: str) -> str:
+    """A regex matching a URDF's revolute joint `joint` up to its type (group 1), for unlimiting it."""
+    return rf'(<joint\s+name="{re.escape(joint)}"\s+type=)"revolute"'
 
 
 def load_scene(path: Path) -> Scene:
-    """Load and validate a scene file."""
-    return load_yaml_model(path, Scene)
+    """Load and validate a scene file, and the robot description and URDFs it refers to."""
+    scene = load_yaml_model(path, Scene)
+    robot = scene.robot_file()
+    if not robot.is_file():
+        raise ConfigError(f"{path}: robot: {scene.robot!r}: no such file (robot files are relative to {ASSETS_DIR})")
+    load_robot(robot)
+    for i, obj in enumerate(scene.objects):
+        problem = _urdf_problem(obj.urdf) if obj.urdf is not None else None
+        if problem is not None:
+            raise ConfigError(f"{path}: objects[{i}].urdf: {problem}")
+    return scene
 
 
 class ArmSpec(_Strict):
@@ -252,5 +384,22 @@ class RobotSpec(_Strict):
 
 
 def load_robot(path: Path) -> RobotSpec:
-    """Load and validate a robot description file."""
-    return load_yaml_model(path, RobotSpec)
+    """Load and validate a robot description file, and check its arm's URDF against it."""
+    spec = load_yaml_model(path, RobotSpec)
+    problem = _urdf_problem(spec.arm.urdf)
+    if problem is not None:
+        raise ConfigError(f"{path}: arm.urdf: {problem}")
+    urdf = resolve_urdf(spec.arm.urdf)
+    try:
+        text = urdf.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"{path}: arm.urdf: {spec.arm.urdf!r} cannot be read: {exc}") from exc
+    for joint in spec.arm.continuous_joints:
+        if re.search(revolute_joint_pattern(joint), text) is None:
+            raise ConfigError(f"{path}: arm.continuous_joints: {spec.arm.urdf} has no revolute joint {joint!r}")
+    movable = len(re.findall(r'<joint\s[^>]*type="(?:revolute|continuous|prismatic)"', text))
+    for field in ("rest_pose", "carry_pose"):
+        given = len(getattr(spec.arm, field))
+        if given != movable:
+            raise ConfigError(f"{path}: arm.{field}: {given} joint angles, but {spec.arm.urdf} has {movable} joints")
+    return spec

@@ -288,7 +288,7 @@ def test_errored_attempts_are_warned_about_and_fail_the_eval_unless_allowed(tmp_
     [
         (["--trials", "0"], "robocog: --trials: Input should be greater than or equal to 1"),
         (["--memory-iterations", "-2"], "robocog: --memory-iterations: Input should be greater than or equal to 1"),
-        (["--workers", "0"], "robocog: --workers: must be at least 1"),
+        (["--workers", "0"], "robocog: --workers: Input should be greater than or equal to 1"),
     ],
 )
 def test_command_line_overrides_are_validated_like_the_config(tmp_path: Path, flags: list[str], message: str) -> None:

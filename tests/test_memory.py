@@ -12,8 +12,9 @@ from pathlib import Path
 
 import pytest
 
-from robocog.server.memory.episodic import EpisodicMemory, parse_chroma_url
+from robocog.server.memory.episodic import EpisodicMemory, parse_chroma_url, record_id
 from robocog.server.memory.scratchpad import Scratchpad
+from robocog.shared.limits import EPISODE_ID_CHARS
 
 
 @pytest.fixture
@@ -240,3 +241,44 @@ def test_scratchpad_clear() -> None:
     pad.add("note")
     pad.clear()
     assert (pad.entries, pad.view(), pad.chars) == ([], "", 0)
+
+
+# -- one record per episode ----------------------------------------------------------------------
+
+
+def test_a_record_written_again_for_its_episode_replaces_it(memory: EpisodicMemory) -> None:
+    first = memory.add("put the mug away", "success", "first try", episode="attempt-1", model="m")
+    memory.set_verified(first.id, "failure")
+    second = memory.add("put the mug away", "failure", "second try", episode="attempt-1")
+    assert second.id == first.id == record_id("attempt-1")
+    assert memory.count() == 1
+    stored = memory.get(first.id)
+    assert stored is not None
+    assert (stored.summary, stored.believed_status, stored.episode) == ("second try", "failure", "attempt-1")
+    assert stored.verified_status is None and stored.model is None  # nothing of the replaced record is kept
+
+
+def test_records_of_other_episodes_or_of_none_are_kept_apart(memory: EpisodicMemory) -> None:
+    memory.add("put the mug away", "success", "a", episode="attempt-1")
+    memory.add("put the mug away", "success", "b", episode="attempt-2")
+    memory.add("put the mug away", "success", "c")
+    memory.add("put the mug away", "success", "c")
+    assert memory.count() == 4
+
+
+def test_add_many_keeps_the_last_entry_of_an_episode(memory: EpisodicMemory) -> None:
+    records = memory.add_many(
+        [
+            {"task_description": "task", "believed_status": "success", "summary": "one", "episode": "e"},
+            {"task_description": "task", "believed_status": "success", "summary": "two", "episode": "e"},
+            {"task_description": "task", "believed_status": "success", "summary": "other"},
+        ]
+    )
+    assert memory.count() == 2
+    stored = memory.get(records[0].id)
+    assert stored is not None and stored.summary == "two"
+
+
+def test_an_overlong_episode_id_is_rejected(memory: EpisodicMemory) -> None:
+    with pytest.raises(ValueError, match="episode id"):
+        memory.add("task", "success", "s", episode="e" * (EPISODE_ID_CHARS + 1))

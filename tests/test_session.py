@@ -8,11 +8,14 @@ from typing import Any
 
 import pytest
 
+from robocog.agent.evaluation import episode_id
 from robocog.server.config import SessionConfig
+from robocog.server.memory.episodic import record_id
 from robocog.server.memory.scratchpad import MAX_CHARS, MAX_ENTRIES, MAX_ENTRY_CHARS
 from robocog.server.session import RobotSession
 from robocog.server.tools import CONTROL_TOOLS, ROBOT_TOOLS, controls, end_task, scratchpad, search_memory
 from robocog.server.tools.base import Tool
+from robocog.shared.limits import EPISODE_ID_CHARS
 from tests.helpers import T1, T1_SEQUENCE, T2, action_args, check_snapshot
 
 TOOLS: dict[str, Tool[Any]] = {t.name: t for t in ROBOT_TOOLS + CONTROL_TOOLS}
@@ -141,6 +144,15 @@ def test_check_task_before_the_episode_ends_writes_nothing(session: RobotSession
     assert [r.verified_status for r in session.memory.records()] == [None]
 
 
+def test_check_task_after_the_record_was_cleared_still_gives_the_verdict(session: RobotSession) -> None:
+    """Found by the fuzz: begin_task, end_task, clear_memory, check_task raised KeyError."""
+    session.call(controls.BEGIN_TASK, task_id="T1")
+    session.call(end_task.TOOL, status="success", description=T1, summary="x")
+    session.call(controls.CLEAR_MEMORY)
+    verdict = session.call(controls.CHECK_TASK, task_id="T1")
+    assert verdict.success is False and session.memory.count() == 0
+
+
 # --- retrieval top-k ------------------------------------------------------------------------------
 
 
@@ -205,3 +217,68 @@ def test_every_tool_module_is_registered() -> None:
         module = importlib.import_module(f"{package.__name__}.{info.name}")
         defined = [v for v in vars(module).values() if isinstance(v, Tool)]
         assert set(defined) <= published, f"{info.name} defines a tool that is not in ROBOT_TOOLS or CONTROL_TOOLS"
+
+
+# --- one record per episode ------------------------------------------------------------------------
+
+
+def test_begin_task_takes_the_harnesss_episode_id_and_the_record_carries_it(session: RobotSession) -> None:
+    begun = session.call(controls.BEGIN_TASK, task_id="T1", episode_id="attempt-7")
+    assert begun.episode_id == session.episode.id == "attempt-7"
+    ended = session.call(end_task.TOOL, status="failure", description=T1, summary="Tried.")
+    assert (ended.episode_id, ended.record_id) == ("attempt-7", record_id("attempt-7"))
+    record = session.memory.get(record_id("attempt-7"))
+    assert record is not None and record.episode == "attempt-7"
+    other = session.call(controls.BEGIN_TASK, task_id="T1")
+    assert other.episode_id != "attempt-7" and len(other.episode_id) == 32
+
+
+def test_the_same_end_task_again_answers_with_the_stored_record(session: RobotSession) -> None:
+    report = {"status": "success", "description": "A task.", "summary": "Done."}
+    first = session.call(end_task.TOOL, **report)
+    again = session.call(end_task.TOOL, **report)
+    assert again.status == "success" and "already ended" in again.message
+    assert (again.record_id, again.episode, again.episode_id) == (first.record_id, first.episode, first.episode_id)
+    assert session.memory.count() == 1
+    session.call(TOOLS["look_around"])  # any other call begins the next episode, as before
+    assert (session.episode.number, session.episode.ended) == (2, False)
+
+
+def test_another_report_right_after_end_task_is_a_new_episode(session: RobotSession) -> None:
+    session.call(end_task.TOOL, status="success", description="A task.", summary="Done.")
+    second = session.call(end_task.TOOL, status="failure", description="Another task.", summary="Gave up.")
+    assert second.episode == 2 and "already ended" not in second.message
+    assert session.memory.count() == 2
+
+
+def test_a_rerun_of_an_attempt_on_a_new_server_stores_one_record(tmp_path: Path) -> None:
+    """A server killed after storing the record (before answering), then the harness reruns the attempt."""
+    summaries = ["The killed server stored this.", "The rerun stored this."]
+    for summary in summaries:
+        robot = RobotSession(SessionConfig(data_dir=tmp_path / "memory"))
+        try:
+            robot.call(controls.BEGIN_TASK, task_id="T1", episode_id="study/model/0/0/T1")
+            robot.call(end_task.TOOL, status="failure", description=T1, summary=summary)
+        finally:
+            robot.close()
+    robot = RobotSession(SessionConfig(data_dir=tmp_path / "memory"))
+    try:
+        assert [r.summary for r in robot.memory.records()] == summaries[1:]
+    finally:
+        robot.close()
+
+
+def test_the_harness_gives_each_attempt_one_stable_episode_id() -> None:
+    attempt = ("study", "model-a", 7, 0, 1, "T1")
+    ids = {
+        episode_id(*attempt),
+        episode_id("study", "model-b", 7, 0, 1, "T1"),
+        episode_id("study", "model-a", 8, 0, 1, "T1"),
+        episode_id("study", "model-a", 7, 1, 1, "T1"),
+        episode_id("study", "model-a", 7, 0, 2, "T1"),
+        episode_id("study", "model-a", 7, 0, 1, "T2"),
+        episode_id("other", "model-a", 7, 0, 1, "T1"),
+    }
+    assert len(ids) == 7
+    assert episode_id(*attempt) == episode_id(*attempt)
+    assert all(len(i) <= EPISODE_ID_CHARS for i in ids)

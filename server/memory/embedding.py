@@ -24,11 +24,13 @@ from tokenizers import Tokenizer, decoders, normalizers, pre_tokenizers, process
 from tokenizers.models import WordPiece
 
 from robocog.assets import ASSETS_DIR
+from robocog.shared.limits import EMBED_CHARS, EMBED_TOKENS
 
 #: Width of the vectors.
 DIMENSIONS = 384
-#: all-MiniLM-L6-v2's max_seq_length (sentence-transformers); longer inputs are truncated.
-MAX_TOKENS = 256
+#: Tokens read per text: the first `EMBED_TOKENS` (shared/limits.py says why); all-MiniLM-L6-v2's own
+#: max_seq_length is 256.
+MAX_TOKENS = EMBED_TOKENS
 #: Texts per ONNX run; inputs are sorted by length first so padding stays small.
 BATCH_SIZE = 32
 #: The uncased BERT WordPiece vocabulary MiniLM was trained with.
@@ -147,10 +149,14 @@ def _embed_batch(
 
 
 def embed(texts: Sequence[str], *, batch_size: int = BATCH_SIZE) -> npt.NDArray[np.float32]:
-    """Embed texts into unit-norm 384-d float32 vectors, shape ``(len(texts), 384)``."""
+    """Embed texts into unit-norm 384-d float32 vectors, shape ``(len(texts), 384)``.
+
+    Only the first `EMBED_CHARS` characters of a text are tokenized: the model reads its first
+    `MAX_TOKENS` tokens only, and the tokenizer would otherwise normalise and split the whole text
+    before truncating it (seconds for megabytes)."""
     if isinstance(texts, str):
         raise TypeError("embed() takes a list of strings, not a single string")
-    items = list(texts)
+    items = [text[:EMBED_CHARS] for text in texts]
     out = np.empty((len(items), DIMENSIONS), dtype=np.float32)
     if not items:
         return out

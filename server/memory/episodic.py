@@ -3,6 +3,11 @@
 Embedded by default (a ``PersistentClient`` in a data directory); with ``url`` a Chroma server that
 many robots can share. Each namespace is its own collection. Vectors are computed here with an
 offline embedding function and handed to Chroma, so Chroma never loads its own (downloading) one.
+
+Texts are bounded both ways (`robocog.shared.limits`): a description or summary longer than its
+limit is stored cut, with a marker, and one read back (written before the limits, or by another
+client of a shared server) is cut the same way. A record written for an episode id has an id derived
+from it, and writing it again replaces it: one episode, one record, however often its end is retried.
 """
 
 from __future__ import annotations
@@ -26,6 +31,7 @@ from chromadb.config import Settings
 
 from robocog.server.memory.embedding import MiniLMEmbeddingFunction
 from robocog.server.memory.names import collection_name, default_data_dir, parse_chroma_url
+from robocog.shared.limits import DESCRIPTION_CHARS, EPISODE_ID_CHARS, NAME_CHARS, SUMMARY_CHARS, truncate
 from robocog.shared.memory import MemoryHit, MemoryRecord
 from robocog.shared.results import Status
 
@@ -33,6 +39,14 @@ from robocog.shared.results import Status
 TIE_EPSILON = 1e-6
 _WRITE_BATCH = 1024
 _STATUSES: tuple[Status, ...] = ("success", "failure")
+#: Namespace of the record ids derived from episode ids.
+_EPISODE_IDS = uuid.UUID("4f0c3c56-2f55-4d0e-9a53-6f1f4b1f7a11")
+
+
+def record_id(episode: str | None) -> str:
+    """The id of the record an episode writes: derived from the episode id (so writing it again
+    replaces it), or a new random one for a record of no episode."""
+    return uuid.uuid4().hex if episode is None else uuid.uuid5(_EPISODE_IDS, episode).hex
 
 
 class EpisodeInput(TypedDict):
@@ -131,7 +145,7 @@ class EpisodicMemory:
         verified_status: Status | None = None,
         episode: str | None = None,
     ) -> MemoryRecord:
-        """Store one episode and return the record written."""
+        """Store one episode and return the record written (replacing the record of the same `episode`, if any)."""
         entry: EpisodeInput = {
             "task_description": task_description,
             "believed_status": believed_status,
@@ -145,7 +159,9 @@ class EpisodicMemory:
         return self.add_many([entry])[0]
 
     def add_many(self, entries: Iterable[EpisodeInput]) -> list[MemoryRecord]:
-        """Store several episodes at once (embedded in batches); later entries count as newer."""
+        """Store several episodes at once (embedded in batches); later entries count as newer. An entry
+        with an `episode` replaces that episode's record (an earlier one in the same call, too); texts
+        over their limits are stored cut, with a marker."""
         records: list[MemoryRecord] = []
         for entry in entries:
             text = entry["task_description"]
@@ -153,17 +169,23 @@ class EpisodicMemory:
                 raise ValueError("task_description must be a non-empty description of the task")
             _check_status("believed_status", entry["believed_status"])
             _check_status("verified_status", entry.get("verified_status"), optional=True)
+            episode = entry.get("episode")
+            if episode is not None and not 0 < len(episode) <= EPISODE_ID_CHARS:
+                raise ValueError(f"an episode id has 1 to {EPISODE_ID_CHARS} characters, got {len(episode)}")
             records.append(
                 MemoryRecord(
-                    id=uuid.uuid4().hex,
+                    **_bounded(cast(Mapping[str, Any], entry)),
+                    id=record_id(episode),
                     created_at=_now().isoformat(timespec="microseconds"),
-                    **cast(Mapping[str, Any], entry),
                 )
             )
-        for start in range(0, len(records), _WRITE_BATCH):
-            batch = records[start : start + _WRITE_BATCH]
+        # Chroma refuses one id twice in a write: the last entry of an episode is the one kept.
+        latest = {r.id: r for r in records}
+        unique = [r for r in records if latest[r.id] is r]
+        for start in range(0, len(unique), _WRITE_BATCH):
+            batch = unique[start : start + _WRITE_BATCH]
             documents = [r.task_description for r in batch]
-            self._collection.add(
+            self._collection.upsert(
                 ids=[r.id for r in batch],
                 documents=documents,
                 embeddings=self._embed(documents),
@@ -279,16 +301,30 @@ class EpisodicMemory:
         return [np.asarray(v, dtype=np.float32) for v in self._ef.embed_query([query])]
 
 
-def _to_metadata(record: MemoryRecord) -> dict[str, str | int | float]:
-    """Chroma metadata of a record: everything but id and document; None values are omitted."""
-    data = record.model_dump(exclude={"id", "task_description"}, exclude_none=True)
-    return cast(dict[str, str | int | float], data)
+def _to_metadata(record: MemoryRecord) -> dict[str, str | int | float | None]:
+    """Chroma metadata of a record: everything but id and document. A None value is written as None,
+    which Chroma's upsert takes as "delete this key": a replaced record keeps nothing of the old one
+    (such as its verified status)."""
+    data = record.model_dump(exclude={"id", "task_description"})
+    return cast(dict[str, str | int | float | None], data)
+
+
+#: The texts of a record and their limits, on the way in and on the way out.
+_TEXT_LIMITS = {"task_description": DESCRIPTION_CHARS, "summary": SUMMARY_CHARS, "model": NAME_CHARS}
+
+
+def _bounded(fields: Mapping[str, Any]) -> dict[str, Any]:
+    """`fields` with each text of `_TEXT_LIMITS` cut to its limit (with a marker)."""
+    return {
+        k: truncate(v, _TEXT_LIMITS[k]) if k in _TEXT_LIMITS and isinstance(v, str) else v for k, v in fields.items()
+    }
 
 
 def _to_record(record_id: str, document: str | None, metadata: Mapping[str, Any] | None) -> MemoryRecord:
-    # Keys a newer robocog may have added are ignored, so a shared server can serve mixed versions.
+    # Keys a newer robocog may have added are ignored, so a shared server can serve mixed versions;
+    # texts over their limits (a record written before them) are cut.
     known = {k: v for k, v in (metadata or {}).items() if k in MemoryRecord.model_fields}
-    return MemoryRecord.model_validate({**known, "id": record_id, "task_description": document or ""})
+    return MemoryRecord.model_validate(_bounded({**known, "id": record_id, "task_description": document or ""}))
 
 
 def _order(hits: Sequence[MemoryHit]) -> list[MemoryHit]:

@@ -6,10 +6,12 @@ from collections import deque
 
 from pydantic import BaseModel, Field
 
+from robocog.shared.limits import NOTE_CHARS, SCRATCHPAD_CHARS, SCRATCHPAD_NOTES
+
 #: The default bounds: at most this many entries, characters in all, and characters per entry.
-MAX_ENTRIES = 50
-MAX_CHARS = 8000
-MAX_ENTRY_CHARS = 2000
+MAX_ENTRIES = SCRATCHPAD_NOTES
+MAX_CHARS = SCRATCHPAD_CHARS
+MAX_ENTRY_CHARS = NOTE_CHARS
 
 
 class ScratchpadAdd(BaseModel):

@@ -3,7 +3,9 @@
 A tool's behaviour is a plain function `run(robot, **arguments) -> Result`: `robot` is the
 `RobotSession` (its world, memory, scratchpad and episode), the other parameters are the tool's
 arguments, typed with `Annotated[..., Field(description=...)]` so that the MCP input schema explains
-itself, and the return annotation is the pydantic result model (the MCP output schema). The
+itself (a text argument also has a `max_length` from `robocog.shared.limits` and an `at_most` check,
+so the SDK refuses an oversize value, with a message saying what to do, before any tool code runs;
+the description lists the limits), and the return annotation is the pydantic result model (the MCP output schema). The
 function's docstring is the tool's description, unless the `Tool` is given one (a description
 built from constants, so that numbers are written down once). A failure the model could have avoided is a result
 with `status="failure"`, an error code and a message to act on; a `ValueError` raised by `run` is
@@ -21,7 +23,9 @@ from dataclasses import dataclass
 from typing import Any, Generic, Literal, TypeVar
 
 from mcp_types import ToolAnnotations
-from pydantic import BaseModel
+from pydantic import BaseModel, BeforeValidator
+from pydantic.fields import FieldInfo
+from pydantic_core import PydanticCustomError
 
 R = TypeVar("R", bound=BaseModel)
 
@@ -35,6 +39,34 @@ IDEMPOTENT_ACTION = ToolAnnotations(
 )
 DESTRUCTIVE = ToolAnnotations(read_only_hint=False, destructive_hint=True, open_world_hint=False)
 CONTROL = ToolAnnotations(read_only_hint=False, open_world_hint=False)
+
+
+def at_most(limit: int, advice: str) -> BeforeValidator:
+    """The check of a text argument of at most `limit` characters (its Field's `max_length` too): run
+    before any other validation, it refuses a longer value at once with a message the model can act on
+    (pydantic's own says neither how long the value was nor what to do)."""
+
+    def check(value: object) -> object:
+        if isinstance(value, str) and len(value) > limit:
+            raise PydanticCustomError(
+                "text_too_long",
+                "too long: {length} characters, at most {limit} are accepted; {advice}",
+                {"length": len(value), "limit": limit, "advice": advice},
+            )
+        return value
+
+    return BeforeValidator(check)
+
+
+def max_length(annotation: object) -> int | None:
+    """The `max_length` of an argument's `Annotated[..., Field(max_length=...)]`, if it has one."""
+    for meta in getattr(annotation, "__metadata__", ()):
+        if isinstance(meta, FieldInfo):
+            for constraint in meta.metadata:  # annotated_types.MaxLen, as pydantic records it
+                limit = getattr(constraint, "max_length", None)
+                if isinstance(limit, int):
+                    return limit
+    return None
 
 
 @dataclass(frozen=True)
@@ -64,10 +96,24 @@ class Tool(Generic[R]):
     #: A successful call can change the world (the robot, an object): subscribers of the world's
     #: resources are told after it.
     changes_world: bool = False
+    #: The tool ends the episode (end_task): called again right after with the same arguments, it is a
+    #: retry of that end, not the first call of a new episode.
+    ends_episode: bool = False
 
     @property
     def description(self) -> str:
-        return inspect.cleandoc(self.doc or self.run.__doc__ or "")
+        """The docstring (or `doc`), then the limits of the text arguments, from their schemas."""
+        text = inspect.cleandoc(self.doc or self.run.__doc__ or "")
+        limits = self.text_limits
+        if limits:
+            text += "\n\nLimits: " + "; ".join(f"{name} at most {n} characters" for name, n in limits.items()) + "."
+        return text
+
+    @property
+    def text_limits(self) -> dict[str, int]:
+        """The most characters each bounded text argument accepts, by argument name."""
+        limits = {p.name: max_length(p.annotation) for p in self.parameters}
+        return {name: n for name, n in limits.items() if n is not None}
 
     @property
     def counts_as_episode_call(self) -> bool:

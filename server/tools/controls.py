@@ -6,19 +6,38 @@ not publish them); they are not counted as the episode's tool calls.
 
 from __future__ import annotations
 
+import logging
 from typing import TYPE_CHECKING, Annotated, Literal
 
 from pydantic import BaseModel, Field
 
-from robocog.server.tools.base import CONTROL, DESTRUCTIVE, Tool
+from robocog.server.tools.base import CONTROL, DESTRUCTIVE, Tool, at_most
 from robocog.server.world.tasks import evaluate
+from robocog.shared.limits import EPISODE_ID_CHARS, NAME_CHARS
 from robocog.shared.results import TaskVerdict, WorldState
 
 if TYPE_CHECKING:
     from robocog.server.session import RobotSession
 
+logger = logging.getLogger("robocog.server.session")
 
-TaskIdArg = Annotated[str, Field(description="A task id from robocog://tasks, e.g. 'T1'", min_length=1, max_length=200)]
+
+TaskIdArg = Annotated[
+    str,
+    Field(description="A task id from robocog://tasks, e.g. 'T1'", min_length=1, max_length=NAME_CHARS),
+    at_most(NAME_CHARS, "give a task id from robocog://tasks, e.g. 'T1'"),
+]
+EpisodeIdArg = Annotated[
+    str | None,
+    Field(
+        description="The harness's id of this attempt; a retry of the attempt (even on a new server) "
+        "gives the same id, and its end_task report replaces the earlier one instead of adding a second. "
+        "Default: a new random id.",
+        min_length=1,
+        max_length=EPISODE_ID_CHARS,
+    ),
+    at_most(EPISODE_ID_CHARS, "use a short id, e.g. a hash of what identifies the attempt"),
+]
 
 
 class BeginTaskResult(BaseModel):
@@ -27,6 +46,7 @@ class BeginTaskResult(BaseModel):
     task_id: str = Field(description="the task the episode is for")
     prompt: str = Field(description="the task's instruction, as the T1/T2 prompts give it")
     episode: int = Field(description="the number of the episode that began")
+    episode_id: str = Field(description="the episode's id (the one given, or a new random one)")
     scratchpad_entries: int = Field(description="entries on the scratchpad (kept from before, or 0)")
 
 
@@ -65,16 +85,19 @@ def begin_task(
     keep_scratchpad: Annotated[
         bool, Field(description="Keep the scratchpad's entries (the paper carries them from T1 into T2)")
     ] = False,
+    episode_id: EpisodeIdArg = None,
 ) -> BeginTaskResult:
     """Begin a new episode for a task, before its first tool call: the world as it is now is the
     baseline check_task judges against, no tool calls yet, no report. The scratchpad is cleared
     unless keep_scratchpad. Call it before every task, so that a task in which the model makes no
-    call is judged, and recorded, as its own episode."""
-    episode = robot.begin_task(task_id, keep_scratchpad=keep_scratchpad)
+    call is judged, and recorded, as its own episode. An episode stores at most one memory record:
+    give the same episode_id when retrying an attempt, and the retry's report replaces the first."""
+    episode = robot.begin_task(task_id, keep_scratchpad=keep_scratchpad, episode_id=episode_id)
     return BeginTaskResult(
         task_id=task_id,
         prompt=robot.task(task_id).prompt,
         episode=episode.number,
+        episode_id=episode.id,
         scratchpad_entries=len(robot.scratchpad),
     )
 
@@ -88,7 +111,10 @@ def check_task(robot: RobotSession, task_id: TaskIdArg) -> TaskVerdict:
     verdict = evaluate(robot.task(task_id), robot.world.placements(), episode.baseline)
     same_task = episode.task_id is None or episode.task_id == task_id
     if episode.ended and episode.record_id is not None and same_task:
-        robot.memory.set_verified(episode.record_id, "success" if verdict.success else "failure")
+        try:
+            robot.memory.set_verified(episode.record_id, "success" if verdict.success else "failure")
+        except KeyError:  # the record was deleted since (clear_memory, here or by a robot sharing the memory)
+            logger.info("check_task: the episode's memory record is gone; the verdict is written nowhere")
     return verdict
 
 

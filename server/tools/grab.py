@@ -6,9 +6,10 @@ from typing import TYPE_CHECKING, Annotated, Literal
 
 from pydantic import Field
 
-from robocog.server.tools.base import ACTION, Tool
+from robocog.server.tools.base import ACTION, Tool, at_most
 from robocog.server.tools.names import unknown_object
 from robocog.server.world.navigation import resolve
+from robocog.shared.limits import NAME_CHARS
 from robocog.shared.results import GrabResult
 
 if TYPE_CHECKING:
@@ -19,8 +20,9 @@ ObjectArg = Annotated[
     Field(
         description="The object to pick up, e.g. 'mug'; it must be at the robot's location",
         min_length=1,
-        max_length=200,
+        max_length=NAME_CHARS,
     ),
+    at_most(NAME_CHARS, "give the object's name as look_around lists it"),
 ]
 
 

@@ -11,7 +11,9 @@ from typing import TYPE_CHECKING, Annotated
 
 from pydantic import Field
 
+from robocog.server.tools.base import at_most
 from robocog.server.world.navigation import closest, resolve, strip_articles
+from robocog.shared.limits import NAME_CHARS
 
 if TYPE_CHECKING:
     from robocog.server.world.world import World
@@ -21,8 +23,9 @@ LocationArg = Annotated[
     Field(
         description="A location on the robot's map, as look_around names it, e.g. 'Kitchen Shelf'",
         min_length=1,
-        max_length=200,
+        max_length=NAME_CHARS,
     ),
+    at_most(NAME_CHARS, "give the location's name as look_around lists it"),
 ]
 
 

@@ -6,9 +6,10 @@ from typing import TYPE_CHECKING, Annotated
 
 from pydantic import Field
 
-from robocog.server.tools.base import ACTION, Tool
+from robocog.server.tools.base import ACTION, Tool, at_most
 from robocog.server.tools.names import LocationArg, unknown_location
 from robocog.server.world.navigation import closest, resolve
+from robocog.shared.limits import NAME_CHARS
 from robocog.shared.results import ErrorCode, PlaceResult
 
 if TYPE_CHECKING:
@@ -20,8 +21,9 @@ PositionArg = Annotated[
         description="A place position of that location as look_around lists it, e.g. 'top', "
         "'middle', 'bottom' or 'floor'",
         min_length=1,
-        max_length=200,
+        max_length=NAME_CHARS,
     ),
+    at_most(NAME_CHARS, "give the position's name as look_around lists it"),
 ]
 
 

@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING, Annotated
 from pydantic import Field
 
 from robocog.server.memory.scratchpad import MAX_CHARS, MAX_ENTRIES, MAX_ENTRY_CHARS
-from robocog.server.tools.base import ACTION, READ_ONLY, Tool
+from robocog.server.tools.base import ACTION, READ_ONLY, Tool, at_most
 from robocog.shared.results import ScratchpadResult, ScratchpadView
 
 if TYPE_CHECKING:
@@ -18,7 +18,9 @@ TextArg = Annotated[
     Field(
         description=f"A thought, plan or observation to keep, at most {MAX_ENTRY_CHARS} characters",
         min_length=1,
+        max_length=MAX_ENTRY_CHARS,
     ),
+    at_most(MAX_ENTRY_CHARS, "shorten the note or split it into several"),
 ]
 
 #: The description of add_to_scratchpad, with the scratchpad's default bounds (the session's).

@@ -18,7 +18,7 @@ from robocog.server.world.navigation import SemanticMap
 from robocog.server.world.robot import Robot
 from robocog.server.world.sim import Body, Position, Sim
 from robocog.shared.errors import WorldError
-from robocog.shared.scene import RobotSpec, Scene, SceneObject, Wall
+from robocog.shared.scene import RobotSpec, Scene, SceneObject, Wall, resolve_urdf
 
 
 def connect(gui: bool) -> BulletClient:
@@ -103,7 +103,9 @@ def _wall(c: BulletClient, wall: Wall) -> int:
 def _object(c: BulletClient, obj: SceneObject) -> Body:
     if obj.shape == "urdf":
         assert obj.urdf is not None
-        body = c.loadURDF(obj.urdf, [0, 0, 5], globalScaling=obj.urdf_scale, useMaximalCoordinates=True)
+        body = c.loadURDF(
+            str(resolve_urdf(obj.urdf)), [0, 0, 5], globalScaling=obj.urdf_scale, useMaximalCoordinates=True
+        )
         c.changeDynamics(body, -1, mass=obj.mass)
         c.changeVisualShape(body, -1, rgbaColor=obj.color)
     else:

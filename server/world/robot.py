@@ -18,22 +18,20 @@ from pathlib import Path
 
 import numpy as np
 import pybullet
-import pybullet_data
 from pybullet_utils.bullet_client import BulletClient
 
-from robocog.shared.scene import RobotSpec
+from robocog.shared.scene import RobotSpec, resolve_urdf, revolute_joint_pattern
 
 Vec3 = tuple[float, float, float]
 
 
 def derived_urdf(spec: RobotSpec) -> Path:
     """A copy of the arm's URDF with `continuous_joints` unlimited and absolute mesh paths (cached)."""
-    source = Path(pybullet_data.getDataPath()) / spec.arm.urdf
+    source = resolve_urdf(spec.arm.urdf)
     text = source.read_text(encoding="utf-8")
     text = re.sub(r'filename="(?!/)([^"]+)"', lambda m: f'filename="{(source.parent / m.group(1)).as_posix()}"', text)
     for joint in spec.arm.continuous_joints:
-        pattern = rf'(<joint\s+name="{re.escape(joint)}"\s+type=)"revolute"'
-        text, count = re.subn(pattern, r'\1"continuous"', text)
+        text, count = re.subn(revolute_joint_pattern(joint), r'\1"continuous"', text)
         if count != 1:
             raise ValueError(f"{source}: no revolute joint named {joint!r} to make continuous")
         block = re.compile(rf'(<joint\s+name="{re.escape(joint)}".*?</joint>)', re.S)

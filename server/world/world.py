@@ -43,7 +43,7 @@ class World:
         if scene is None or isinstance(scene, str | Path):
             scene = load_scene(Path(scene) if scene is not None else DEFAULT_SCENE)
         self.scene = scene
-        self.robot_spec = load_robot(ASSETS_DIR / scene.robot)
+        self.robot_spec = load_robot(scene.robot_file())
         episode.check_options(options)
         self.client = connect(gui)
         self.seed = seed
