@@ -42,6 +42,8 @@ class ServerSpec:
     command: list[str] = field(default_factory=default_server_command)
     extra_args: list[str] = field(default_factory=list)
     env: dict[str, str] = field(default_factory=dict)
+    #: The bearer token of an HTTP server started with --auth-token (default: $ROBOCOG_AUTH_TOKEN).
+    auth_token: str | None = field(default_factory=lambda: os.environ.get("ROBOCOG_AUTH_TOKEN") or None)
 
     @classmethod
     def from_options(cls, url: str | None, server_cmd: str | None, extra_args: list[str] | None = None) -> ServerSpec:
@@ -102,7 +104,7 @@ async def connect(spec: ServerSpec) -> AsyncIterator[Robot]:
 
     log: IO[str] | None = None
     if spec.url:
-        target: Any = spec.url
+        target: Any = _http_transport(spec.url, spec.auth_token)
     else:
         env = {
             "ANONYMIZED_TELEMETRY": "False",
@@ -130,10 +132,38 @@ async def connect(spec: ServerSpec) -> AsyncIterator[Robot]:
 
 
 @asynccontextmanager
+async def _http_transport(url: str, token: str | None) -> AsyncIterator[Any]:
+    """The streamable HTTP transport to `url`, sending the bearer token when there is one."""
+    import httpx2  # the MCP SDK's HTTP client
+    from mcp.client.streamable_http import streamable_http_client
+
+    headers = {"Authorization": f"Bearer {token}"} if token else {}
+
+    async def refused(response: httpx2.Response) -> None:
+        if response.status_code == 401:
+            given = "the bearer token in $ROBOCOG_AUTH_TOKEN was refused" if token else "it needs a bearer token"
+            raise ServerConnectionError(
+                f"the robot server at {url} refused the connection: {given} "
+                "(set ROBOCOG_AUTH_TOKEN to the server's --auth-token)"
+            )
+
+    # The SDK's own timeouts: a response stream may stay open for minutes.
+    timeout = httpx2.Timeout(30.0, read=300.0)
+    async with (
+        httpx2.AsyncClient(headers=headers, timeout=timeout, event_hooks={"response": [refused]}) as client,
+        streamable_http_client(url, http_client=client) as streams,
+    ):
+        yield streams
+
+
+@asynccontextmanager
 async def _session(target: Any, spec: ServerSpec) -> AsyncIterator[Robot]:
     from mcp_types import Implementation
 
-    async with Client(target, client_info=Implementation(name="robocog", version=__version__)) as client:
+    # Over HTTP, the initialize handshake: the server then knows this client by its session (the robot's
+    # lease, its per-session state); the sessionless 2026-07-28 protocol would make every call a stranger.
+    mode = "legacy" if spec.url else "auto"
+    async with Client(target, client_info=Implementation(name="robocog", version=__version__), mode=mode) as client:
         tools = (await client.list_tools()).tools
         prompt = await client.get_prompt("robot_system")
         system_prompt = "\n".join(getattr(m.content, "text", "") for m in prompt.messages)

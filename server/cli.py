@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
+
+from robocog.server.config import DEFAULT_MAX_SESSIONS, DEFAULT_SESSION_IDLE_S
 
 DESCRIPTION = """\
 A simulated household robot (PyBullet) behind the Model Context Protocol.
@@ -28,12 +31,20 @@ EPILOG = """\
 examples:
   robocog-server                                  # stdio, for Claude Desktop, Cursor, the MCP Inspector
   robocog-server --transport http --port 8765     # streamable HTTP on http://127.0.0.1:8765/mcp
+  robocog-server --view                           # stdio, and the live viewer on http://127.0.0.1:8766/
   robocog-server --profile eval --data-dir /tmp/mem --memory-namespace trial-3
   robocog-server --memory-url http://127.0.0.1:8000   # share one Chroma server between robots
 
 environment:
   ROBOCOG_DATA_DIR   default for --data-dir
+  ROBOCOG_AUTH_TOKEN default for --auth-token
 """
+
+
+def http_loopback(host: str) -> bool:
+    from robocog.server.http import is_loopback
+
+    return is_loopback(host)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -48,6 +59,62 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--host", default="127.0.0.1", help="HTTP bind address (default: 127.0.0.1, this machine only)")
     t.add_argument("--port", type=int, default=8765, help="HTTP port (default: 8765); the endpoint is /mcp")
     t.add_argument("--log-level", default="WARNING", choices=["DEBUG", "INFO", "WARNING", "ERROR"])
+    t.add_argument(
+        "--view",
+        nargs="?",
+        type=_port,
+        const=8766,
+        default=None,
+        metavar="PORT",
+        help="also serve the live viewer (a web page: the map, the camera, the tool calls as they happen) on "
+        "http://127.0.0.1:PORT/ (default port: 8766; 0 picks a free one), with any transport",
+    )
+    a = p.add_argument_group("access (HTTP: see the README's 'Security' section)")
+    a.add_argument(
+        "--auth-token",
+        default=os.environ.get("ROBOCOG_AUTH_TOKEN") or None,
+        metavar="TOKEN",
+        help="HTTP clients must send 'Authorization: Bearer TOKEN' (default: $ROBOCOG_AUTH_TOKEN; 'generate' "
+        "makes one and prints it); required when --host is not loopback",
+    )
+    a.add_argument(
+        "--allowed-host",
+        action="append",
+        default=[],
+        metavar="HOST[:PORT]",
+        help="a Host header to accept besides loopback and this machine's names (repeatable)",
+    )
+    a.add_argument(
+        "--allowed-origin",
+        action="append",
+        default=[],
+        metavar="ORIGIN",
+        help="a browser Origin to accept besides loopback, e.g. https://robot.example (repeatable)",
+    )
+    a.add_argument(
+        "--max-sessions",
+        type=_positive(int),
+        default=DEFAULT_MAX_SESSIONS,
+        help=f"HTTP sessions open at once; past it a new one gets 503 (default: {DEFAULT_MAX_SESSIONS})",
+    )
+    a.add_argument(
+        "--session-idle-s",
+        type=_positive(float),
+        default=DEFAULT_SESSION_IDLE_S,
+        help=f"close an HTTP session after this many seconds without a request (default: {DEFAULT_SESSION_IDLE_S:g})",
+    )
+    a.add_argument(
+        "--confirm-actions",
+        action="store_true",
+        help="ask the user (MCP elicitation) before every move_to, grab and place: for desktop use",
+    )
+    a.add_argument(
+        "--allow-tools",
+        type=_tool_list,
+        default=None,
+        metavar="TOOL,...",
+        help="publish only these robot tools, e.g. look_around,search_memory (default: all)",
+    )
     w = p.add_argument_group("world")
     w.add_argument(
         "--profile",
@@ -83,6 +150,36 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _positive(kind: type[int] | type[float]) -> Callable[[str], float]:
+    def parse(text: str) -> float:
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+        if not (math.isfinite(value) and value > 0):
+            raise argparse.ArgumentTypeError(f"{text!r} is not a positive number")
+        return value
+
+    return parse
+
+
+def _port(text: str) -> int:
+    try:
+        port = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a port number") from None
+    if not 0 <= port <= 65535:
+        raise argparse.ArgumentTypeError(f"{port} is not a port number (0-65535)")
+    return port
+
+
+def _tool_list(text: str) -> frozenset[str]:
+    names = frozenset(n.strip() for n in text.split(",") if n.strip())
+    if not names:
+        raise argparse.ArgumentTypeError("name at least one tool")
+    return names
+
+
 def _search_k(text: str) -> int:
     try:
         k = int(text)
@@ -95,26 +192,67 @@ def _search_k(text: str) -> int:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    from robocog.server.config import AccessConfig
+    from robocog.server.http import HttpOptions, generate_token, machine_names, serve
+    from robocog.shared.errors import ConfigError
+
+    token = generate_token() if args.auth_token == "generate" else args.auth_token
+    http = HttpOptions(
+        host=args.host,
+        port=args.port,
+        auth_token=token,
+        allowed_hosts=tuple(args.allowed_host),
+        allowed_origins=tuple(args.allowed_origin),
+        max_sessions=args.max_sessions,
+        session_idle_s=args.session_idle_s,
+        machine_names=() if args.transport == "stdio" or http_loopback(args.host) else machine_names(),
+    )
+    access = AccessConfig(
+        auth_token=token if args.transport == "http" else None,
+        url=http.url,
+        confirm_actions=args.confirm_actions,
+        allow_tools=args.allow_tools,
+        lease_idle_s=args.session_idle_s,
+    )
+    if args.transport == "http":
+        try:
+            http.check()
+        except ConfigError as exc:
+            print(f"robocog-server: {exc}", file=sys.stderr)
+            return 2
+    from robocog.server.memory.names import collection_name, parse_chroma_url
+    from robocog.shared.errors import WorldError
+    from robocog.shared.scene import load_scene
+
+    # Fail fast, with the reason on one line, before any client connects (and before PyBullet
+    # announces itself on stderr): the scene and every file it names, the memory's address.
+    try:
+        if args.scene is not None:
+            load_scene(args.scene)
+        if args.memory_url is not None:
+            parse_chroma_url(args.memory_url)
+            if args.data_dir is not None:
+                from_env = os.environ.get("ROBOCOG_DATA_DIR")
+                if from_env and args.data_dir == Path(from_env):
+                    args.data_dir = None  # $ROBOCOG_DATA_DIR is only a default: --memory-url overrides it
+                else:
+                    raise ConfigError(
+                        "--data-dir and --memory-url cannot be used together: --data-dir is where embedded "
+                        "memory lives, --memory-url a Chroma server's; give one"
+                    )
+        collection_name(args.memory_namespace)
+    except (ConfigError, ValueError) as exc:
+        print(f"robocog-server: {exc}", file=sys.stderr)
+        return 2
+
     from robocog.server.world.cstdio import stdout_to_stderr
 
     with stdout_to_stderr():
         import pybullet  # noqa: F401
 
     from robocog.server.app import build_server
-    from robocog.server.memory.names import collection_name, parse_chroma_url
     from robocog.server.session import SessionConfig
-    from robocog.shared.errors import ConfigError, WorldError
-    from robocog.shared.scene import load_scene
 
-    try:  # fail fast, with the reason, before any client connects
-        if args.scene is not None:
-            load_scene(args.scene)
-        if args.memory_url is not None:
-            parse_chroma_url(args.memory_url)
-        collection_name(args.memory_namespace)
-    except (ConfigError, ValueError) as exc:
-        print(f"robocog-server: {exc}", file=sys.stderr)
-        return 2
     if args.gui and not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
         print("robocog-server: --gui needs a display and none is set (DISPLAY is empty)", file=sys.stderr)
         return 2
@@ -129,13 +267,19 @@ def main(argv: Sequence[str] | None = None) -> int:
         memory_labels=args.memory_labels,
         search_k=args.search_k,
     )
-    server = build_server(config, profile=args.profile, log_level=args.log_level)
+    try:
+        server = build_server(config, profile=args.profile, log_level=args.log_level, access=access, view=args.view)
+    except ConfigError as exc:
+        print(f"robocog-server: {exc}", file=sys.stderr)
+        return 2
     try:
         if args.transport == "stdio":
             server.run("stdio")
         else:
-            print(f"robocog-server: MCP over streamable HTTP at http://{args.host}:{args.port}/mcp", file=sys.stderr)
-            server.run("streamable-http", host=args.host, port=args.port)
+            print(f"robocog-server: MCP over streamable HTTP at {http.url}", file=sys.stderr)
+            if args.auth_token == "generate":
+                print(f"robocog-server: bearer token (clients send it as ROBOCOG_AUTH_TOKEN): {token}", file=sys.stderr)
+            serve(server, http, log_level=args.log_level)
     except WorldError as exc:
         print(f"robocog-server: {exc}", file=sys.stderr)
         return 2

@@ -13,6 +13,10 @@ MemoryLabels = Literal["believed", "verified"]
 NOTICE = 25
 logging.addLevelName(NOTICE, "NOTICE")
 
+#: HTTP limits by default (`robocog-server --max-sessions`, `--session-idle-s`).
+DEFAULT_MAX_SESSIONS = 64
+DEFAULT_SESSION_IDLE_S = 600.0
+
 
 @dataclass(frozen=True)
 class SessionConfig:
@@ -27,3 +31,20 @@ class SessionConfig:
     namespace: str = "default"
     memory_labels: MemoryLabels = "believed"
     search_k: int = 3
+
+
+@dataclass(frozen=True)
+class AccessConfig:
+    """Who may do what with the robot (the server's command line maps onto this; see server/http.py
+    for the HTTP side and server/ownership.py for the lease)."""
+
+    #: A bearer token every HTTP request must carry (None: no authentication, loopback only).
+    auth_token: str | None = None
+    #: The server's own URL (the issuer of its token, for the SDK's auth settings).
+    url: str = "http://127.0.0.1:8765/mcp"
+    #: Ask the user (MCP elicitation) before every action that moves the robot.
+    confirm_actions: bool = False
+    #: The robot tools published (None: all); the eval profile's controls are not affected.
+    allow_tools: frozenset[str] | None = None
+    #: How long a driver without a session keeps the robot after its last call.
+    lease_idle_s: float = DEFAULT_SESSION_IDLE_S

@@ -1,0 +1,90 @@
+"""Consent before acting (`robocog-server --confirm-actions`): the user allows each move of the robot.
+
+With the flag, every robot tool that moves the robot or an object (move_to, grab, place) first asks
+the user through MCP elicitation: "allow once", "allow for this session" or "deny". The SDK's
+resolvers carry the question on either protocol (a server-to-client request up to 2025-11-25; an
+`InputRequiredResult` and a retry from 2026-07-28), so a tool only declares that it needs an answer.
+A client that cannot ask its user (no elicitation capability) gets a tool error that says to run the
+server without the flag.
+"""
+
+from __future__ import annotations
+
+import inspect
+from collections.abc import Callable, Hashable
+from typing import Annotated, Any, Literal
+
+from mcp.server.elicitation import AcceptedElicitation, ElicitationResult
+from mcp.server.mcpserver import Context
+from mcp.server.mcpserver.exceptions import ToolError
+from mcp.server.mcpserver.resolve import Elicit, Resolve
+from pydantic import BaseModel, Field
+
+from robocog.server.tools.base import Tool
+
+ALLOW_ONCE = "allow once"
+ALLOW_SESSION = "allow for this session"
+DENY = "deny"
+
+
+class Decision(BaseModel):
+    """What the user answered."""
+
+    decision: Literal["allow once", "allow for this session", "deny"] = Field(
+        title="Let the robot do this?",
+        description="'allow for this session' stops asking until this client disconnects",
+    )
+
+
+NO_ELICITATION = (
+    "This robot server was started with --confirm-actions: every action needs the user's consent, asked "
+    "through MCP elicitation, and this client does not support elicitation. Run the server without "
+    "--confirm-actions (for example, remove it from the client's server configuration), or use a client "
+    "that supports elicitation."
+)
+
+
+class ConsentGate:
+    """Asks the user before `tool` runs, and remembers the drivers that allowed actions for the rest
+    of their session. `driver_of(ctx)` names the caller: a key, and the connection whose end forgets
+    an "allow for this session" (None: the driver has no session, the answer lasts while the server runs).
+    """
+
+    def __init__(self, driver_of: Callable[[Context[Any]], tuple[Hashable, Any]]) -> None:
+        self.driver_of = driver_of
+        self._allowed: set[Hashable] = set()
+
+    def parameter(self, tool: Tool[Any]) -> inspect.Parameter:
+        """The keyword parameter a tool handler declares to receive the user's answer before it runs."""
+        gate = self
+
+        async def ask(ctx: Context[Any], **arguments: Any) -> Elicit[Decision] | Decision:
+            key, _ = gate.driver_of(ctx)
+            if key in gate._allowed:
+                return Decision(decision=ALLOW_SESSION)
+            capabilities = ctx.client_capabilities
+            if capabilities is None or capabilities.elicitation is None:
+                raise ToolError(NO_ELICITATION)
+            shown = ", ".join(f"{k}={v!r}" for k, v in arguments.items())
+            return Elicit(f"The model asks the robot to {tool.name}({shown}). Allow it?", Decision)
+
+        keyword = inspect.Parameter.KEYWORD_ONLY
+        parameters = [p.replace(kind=keyword) for p in tool.parameters]
+        context = inspect.Parameter("ctx", keyword, annotation=Context[Any])
+        returns = Elicit[Decision] | Decision
+        ask.__signature__ = inspect.Signature([context, *parameters], return_annotation=returns)  # type: ignore[attr-defined]
+        ask.__annotations__ = {"ctx": Context[Any]} | {p.name: p.annotation for p in parameters} | {"return": returns}
+        ask.__name__ = ask.__qualname__ = f"confirm_{tool.name}"
+        annotation = Annotated[ElicitationResult[Decision], Resolve(ask)]
+        return inspect.Parameter("consent", keyword, annotation=annotation)
+
+    def check(self, ctx: Context[Any], tool: Tool[Any], answer: ElicitationResult[Decision]) -> None:
+        """Raise a tool error unless the user allowed the action; remember "for this session"."""
+        if not isinstance(answer, AcceptedElicitation) or answer.data.decision == DENY:
+            raise ToolError(f"The user did not allow {tool.name}: the robot did not move. Ask the user why.")
+        if answer.data.decision == ALLOW_SESSION:
+            key, connection = self.driver_of(ctx)
+            if key not in self._allowed:
+                self._allowed.add(key)
+                if connection is not None:  # the session ends: ask again next time
+                    connection.exit_stack.callback(self._allowed.discard, key)
