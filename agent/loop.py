@@ -5,10 +5,13 @@ executed in order; their results go back to the model. When the model stops with
 end_task it is re-invoked with the task restated (the paper's protocol), up to `max_invocations`;
 a task that is never ended is recorded as stopped (a refusal); a failing model service or server is
 an error, never a refusal. What the messages say is the protocol's (see `robocog.agent.protocols`).
+A picture in a tool result goes to the model only when it takes images (`AgentSettings.vision`), in a
+user message after the turn's tool messages (see `model.image_message`); the trace keeps it as a file.
 """
 
 from __future__ import annotations
 
+import base64
 import json
 import time
 from dataclasses import dataclass, field
@@ -17,11 +20,11 @@ from typing import Any, Literal, cast
 from mcp import Client
 from mcp_types import RequestParamsMeta, Tool
 
-from robocog.agent.model import assistant_message, complete, usage
+from robocog.agent.model import IMAGE_OMITTED, assistant_message, complete, image_message, usage
 from robocog.agent.protocols import DESCRIPTION_URI, PROTOCOLS, EvalProtocol
 from robocog.agent.trace import Trace
 from robocog.shared.errors import ModelServiceError, ServerConnectionError
-from robocog.shared.protocol import CONTROL_TOOLS, MODEL_META_KEY
+from robocog.shared.protocol import CONTROL_TOOLS, MODEL_META_KEY, VISION_TOOLS
 from robocog.shared.trace import ModelTurn, Reinvoked, RunFinished, RunStarted, ToolCall, ToolResult, Verdict
 
 
@@ -38,6 +41,9 @@ class AgentSettings:
     seed: int | None = None
     temperature: float | None = None
     params: dict[str, Any] = field(default_factory=dict)
+    #: The model takes images: a picture a tool returns (look's) is shown to it in a user message
+    #: after the tool message; otherwise the tool message says, in one line, that it was left out.
+    vision: bool = False
 
 
 Outcome = Literal["ended", "stopped", "error"]
@@ -71,8 +77,9 @@ class EpisodeResult:
         return self.outcome == "stopped"
 
 
-def function_definitions(tools: list[Tool]) -> list[dict[str, Any]]:
-    """MCP tool schemas as OpenAI / LiteLLM function definitions (control tools left out)."""
+def function_definitions(tools: list[Tool], *, vision: bool = False) -> list[dict[str, Any]]:
+    """MCP tool schemas as OpenAI / LiteLLM function definitions: never the controls, and the camera
+    only with `vision` (a text-only model would get nothing from it)."""
     return [
         {
             "type": "function",
@@ -83,13 +90,22 @@ def function_definitions(tools: list[Tool]) -> list[dict[str, Any]]:
             },
         }
         for t in tools
-        if t.name not in CONTROL_TOOLS
+        if t.name not in CONTROL_TOOLS and (vision or t.name not in VISION_TOOLS)
     ]
+
+
+#: A picture from a tool result: (tool name, MIME type, base64 data).
+Picture = tuple[str, str, str]
 
 
 def _text(result: Any) -> str:
     parts = [getattr(block, "text", "") for block in result.content]
     return "\n".join(p for p in parts if p) or json.dumps(result.structured_content)
+
+
+def _pictures(result: Any) -> list[tuple[str, str]]:
+    """The image content blocks of a tool result, as (MIME type, base64 data)."""
+    return [(block.mime_type, block.data) for block in result.content if getattr(block, "type", None) == "image"]
 
 
 async def run_episode(
@@ -110,7 +126,7 @@ async def run_episode(
     conversation); it is extended in place, and an empty one starts with the system prompt.
     """
     started = time.monotonic()
-    definitions = function_definitions(tools)
+    definitions = function_definitions(tools, vision=settings.vision and protocol.offers_camera)
     names = {d["function"]["name"] for d in definitions}
     trace.emit(
         RunStarted(
@@ -169,15 +185,19 @@ async def run_episode(
                 calls = message.get("tool_calls") or []
                 if not calls:
                     break
+                pictures: list[Picture] = []
                 for call in calls:
                     if ended:  # after end_task nothing more runs: it would begin the next episode
                         content = "Not run: the task was ended with end_task."
                     else:
                         tool_calls += 1
-                        done, content = await _execute(client, call, names, settings, trace, invocation)
+                        done, content, shown = await _execute(client, call, names, settings, trace, invocation)
+                        pictures += shown
                         if done is not None:
                             ended, believed, summary = True, done[0], done[1]
                     messages.append({"role": "tool", "tool_call_id": call["id"], "content": content})
+                if pictures:  # after every tool message of the turn: they must follow the assistant's calls
+                    messages.append(image_message(pictures))
                 if ended:
                     break
     except (ModelServiceError, ServerConnectionError) as exc:
@@ -228,8 +248,9 @@ def _sendable(message: dict[str, Any]) -> dict[str, Any]:
 
 async def _execute(
     client: Client, call: dict[str, Any], names: set[str], settings: AgentSettings, trace: Trace, invocation: int
-) -> tuple[tuple[bool, str] | None, str]:
-    """Run one tool call; returns ((believed success, summary) if it ended the task, text for the model)."""
+) -> tuple[tuple[bool, str] | None, str, list[Picture]]:
+    """Run one tool call; returns ((believed success, summary) if it ended the task, text for the model,
+    the pictures to show it: none unless it takes images, when the text says so instead)."""
     name = call["function"]["name"]
     raw = call["function"].get("arguments") or "{}"
     arguments: dict[str, Any] | None
@@ -251,6 +272,8 @@ async def _execute(
         problem = f"Error: there is no tool called {name!r}. The tools are: {', '.join(sorted(names))}."
     t0 = time.monotonic()
     is_error, structured = True, None
+    pictures: list[Picture] = []
+    references: list[str] = []
     rejected = problem is not None or arguments is None
     if rejected:  # rejected here: the server never sees the call
         content = problem or ""
@@ -266,6 +289,12 @@ async def _execute(
             raise ServerConnectionError(f"the robot server failed on {name}: {exc}") from exc
         content, is_error = _text(result), bool(result.is_error)
         structured = result.structured_content if isinstance(result.structured_content, dict) else None
+        for mime_type, data in _pictures(result):
+            references.append(trace.save_image(base64.b64decode(data), tool=name, mime_type=mime_type))
+            if settings.vision:
+                pictures.append((name, mime_type, data))
+            else:
+                content += "\n" + IMAGE_OMITTED
     trace.emit(
         ToolResult(
             t=trace.now(),
@@ -276,11 +305,13 @@ async def _execute(
             content=content,
             structured=structured,
             latency_s=0.0 if rejected else round(time.monotonic() - t0, 4),
+            images=references,
+            images_sent=bool(pictures),
         )
     )
     if name == "end_task" and arguments is not None and not is_error:
-        return (arguments.get("status") == "success", str(arguments.get("summary", ""))), content
-    return None, content
+        return (arguments.get("status") == "success", str(arguments.get("summary", ""))), content, pictures
+    return None, content, pictures
 
 
 def finish(trace: Trace, result: EpisodeResult, verdict: Verdict | None) -> RunFinished:

@@ -267,6 +267,26 @@ async def complete(settings: AgentSettings, messages: list[dict[str, Any]], tool
     raise AssertionError("unreachable")
 
 
+# --- pictures ------------------------------------------------------------------------------------
+
+#: What a text-only model reads, in the tool message, in place of each picture a tool returned.
+IMAGE_OMITTED = "[image omitted: this model does not take images; run with --vision to send it]"
+
+
+def image_message(pictures: list[tuple[str, str, str]]) -> dict[str, Any]:
+    """The user message that shows a vision model the pictures of a turn's tool results, each given
+    as (tool name, MIME type, base64 data). OpenAI-style tool messages carry only text, so the
+    pictures follow the turn's tool messages in one user message of `image_url` parts (data URLs);
+    LiteLLM turns those into each provider's own image blocks (Anthropic's, Gemini's, Ollama's)."""
+    names = sorted({name for name, _, _ in pictures})
+    parts: list[dict[str, Any]] = [
+        {"type": "text", "text": f"The picture{'s' if len(pictures) > 1 else ''} returned by {', '.join(names)}:"}
+    ]
+    for _, mime_type, data in pictures:
+        parts.append({"type": "image_url", "image_url": {"url": f"data:{mime_type};base64,{data}"}})
+    return {"role": "user", "content": parts}
+
+
 # --- what a response carries ---------------------------------------------------------------------
 
 

@@ -33,6 +33,7 @@ class EvalProtocol:
     describe_environment: bool  # every invocation's message carries the environment description
     keep_scratchpad: bool  # the scratchpad carries over between the tasks of a memory iteration
     search_k: int  # search_memory's default number of results
+    offers_camera: bool  # a vision model is offered the camera (`look`); the paper's protocol never does
 
     def first_message(self, task: str, description: str | None) -> str:
         """The user message that starts a task."""
@@ -77,6 +78,7 @@ PROTOCOLS: dict[ProtocolName, EvalProtocol] = {
         describe_environment=True,
         keep_scratchpad=True,
         search_k=5,
+        offers_camera=False,
     ),
     "robocog": EvalProtocol(
         name="robocog",
@@ -85,5 +87,6 @@ PROTOCOLS: dict[ProtocolName, EvalProtocol] = {
         describe_environment=False,
         keep_scratchpad=False,
         search_k=3,
+        offers_camera=True,
     ),
 }

@@ -31,10 +31,31 @@ class Trace:
         self.events: list[TraceEvent] = []
         self.start = time.monotonic()
         self.console = console
+        self.path = path
+        #: The pictures of this run's tool results, by the reference their `ToolResult.images` holds.
+        self.images: dict[str, bytes] = {}
         self._file: IO[str] | None = None
         if path is not None:
             path.parent.mkdir(parents=True, exist_ok=True)
             self._file = path.open("a", encoding="utf-8")
+
+    def save_image(self, data: bytes, *, tool: str, mime_type: str = "image/png") -> str:
+        """Keep a picture a tool returned and give its reference for the trace: with a trace file
+        `DIR/run.jsonl`, the file `DIR/run.images/NNNN-TOOL.png` (the reference is the path relative
+        to DIR; numbering goes on from the files there, as the trace file is appended to); without
+        one, an in-memory name. The trace itself never holds the bytes."""
+        suffix = {"image/png": ".png", "image/jpeg": ".jpg"}.get(mime_type, ".bin")
+        if self.path is None:
+            reference = f"memory/{len(self.images) + 1:04d}-{tool}{suffix}"
+        else:
+            folder = self.path.with_name(self.path.stem + ".images")
+            folder.mkdir(parents=True, exist_ok=True)
+            number = sum(1 for _ in folder.iterdir()) + 1
+            target = folder / f"{number:04d}-{tool}{suffix}"
+            target.write_bytes(data)
+            reference = target.relative_to(self.path.parent).as_posix()
+        self.images[reference] = data
+        return reference
 
     def now(self) -> float:
         return round(time.monotonic() - self.start, 4)
@@ -72,6 +93,8 @@ class Trace:
             )
         elif isinstance(event, ToolResult):
             text = _summarise(event)
+            if event.images:
+                text += f" [picture{'s' if len(event.images) > 1 else ''}: {', '.join(event.images)}]"
             self._line("TOOL-RESPONSE", "bold red" if event.is_error else "bold green", text)
         elif isinstance(event, Reinvoked):
             self._line("SYSTEM", "bold dark_orange", f"Re-invoking the agent ({event.invocation}): {event.reason}")

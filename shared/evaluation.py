@@ -21,6 +21,9 @@ class ModelSpec(BaseModel):
     api_key: str | None = Field(default=None, description="the key, if not from the provider's usual variable")
     api_key_env: str | None = Field(default=None, description="an environment variable holding the key")
     params: dict[str, Any] = Field(default={}, description="extra completion parameters, e.g. temperature")
+    vision: bool = Field(
+        default=False, description="the model takes images: it is shown the pictures tools return (look's)"
+    )
 
     @property
     def name(self) -> str:

@@ -3,9 +3,17 @@
 #: `_meta` key a client sets on tool calls to name the model driving the robot; end_task stores it.
 MODEL_META_KEY = "robocog/model"
 
+#: `_meta` key a client without an MCP session (protocol 2026-07-28 and later) sets on every call to
+#: name itself as the robot's driver: the robot is held by one driver at a time (see server/ownership.py).
+DRIVER_META_KEY = "robocog/driver"
+
 #: The eval profile's controls for harnesses: a client never offers them to the model it drives.
 CONTROL_TOOLS = frozenset({"reset_world", "begin_task", "check_task", "clear_memory"})
 
+#: Tools whose answer is a picture: a client offers them only to a model that takes images (robocog's
+#: `--vision`), and never under the paper's protocol, whose models had the eight tools of the paper.
+VISION_TOOLS = frozenset({"look"})
+
 #: The version of the published MCP contract (assets/contract/, CHANGELOG.md there). The server announces
 #: it in its instructions as "MCP contract X.Y"; `robocog contract` reads it back from there.
-CONTRACT_VERSION = "1.0"
+CONTRACT_VERSION = "2.0"

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import BaseModel, Field
+from pydantic import BaseModel, Field, PrivateAttr
 
 Status = Literal["success", "failure"]
 
@@ -83,6 +83,66 @@ class PlaceResult(ActionResult):
     location: str | None = None
     position: str | None = None
     holding: str | None = Field(default=None, description="the object in the robot's hand afterwards")
+
+
+# --- the camera ------------------------------------------------------------------------------------
+
+
+class ImageInfo(BaseModel):
+    """What a picture attached to a result is (its pixels are an MCP image content block, not JSON)."""
+
+    mime_type: Literal["image/png"] = "image/png"
+    width: int = Field(description="pixels across")
+    height: int = Field(description="pixels down")
+
+
+class WithImage(BaseModel):
+    """A result that carries a picture. The bytes are not a field: the server sends them as an MCP
+    image content block beside the JSON (structured content stays small); `image` describes them."""
+
+    image: ImageInfo | None = Field(default=None, description="the picture sent as an image content block, if any")
+    _image_bytes: bytes | None = PrivateAttr(default=None)
+
+    @property
+    def image_bytes(self) -> bytes | None:
+        """The encoded picture (see `image.mime_type`), when one is attached."""
+        return self._image_bytes
+
+    def attach_image(
+        self, data: bytes, *, width: int, height: int, mime_type: Literal["image/png"] = "image/png"
+    ) -> None:
+        """Attach an encoded picture of `width` x `height` pixels."""
+        self._image_bytes = data
+        self.image = ImageInfo(mime_type=mime_type, width=width, height=height)
+
+
+class SeenObject(BaseModel):
+    """An object in the camera's view, from ground truth."""
+
+    name: str
+    where: str = Field(description="where it is, e.g. 'on Kitchen Table middle' or 'in the robot's hand'")
+    distance_m: float = Field(description="from the camera, metres")
+    bearing_deg: float = Field(description="angle from the middle of the view, degrees, positive to the left")
+    side: Literal["ahead", "to the left", "to the right"] = Field(description="where in the view")
+
+
+class Caption(BaseModel):
+    """What the camera's view shows, from ground truth (not from the pixels)."""
+
+    text: str = Field(description="one line saying what is visible")
+    objects: list[SeenObject] = Field(default=[], description="objects in view, nearest first")
+    furniture: list[str] = Field(default=[], description="furniture in view")
+    locations: list[str] = Field(default=[], description="locations of the map whose spot on the floor is in view")
+
+
+class LookResult(WithImage, ActionResult):
+    """The outcome of look: the picture is an image content block; this says where the camera looked."""
+
+    location: str = Field(description="where the robot is")
+    direction: str = Field(description="where the camera looked: 'ahead', 'left', ..., or 'toward NAME'")
+    heading_deg: float = Field(description="the camera's heading on the map, degrees (0 is +x, counter-clockwise)")
+    tilt_deg: float = Field(description="the camera's tilt, degrees (negative is down)")
+    caption: Caption | None = Field(default=None, description="what is visible, only when asked for")
 
 
 # --- ground truth -------------------------------------------------------------------------------
@@ -195,4 +255,5 @@ class EndTaskResult(BaseModel):
     message: str
     record_id: str | None = Field(default=None, description="the episodic-memory record written")
     episode: int = Field(description="the number of the episode that ended")
+    episode_id: str | None = Field(default=None, description="the id of the episode, stored with its record")
     tool_calls: int = Field(description="robot tool calls made in the episode")

@@ -3,6 +3,7 @@
 A trace records everything an agent run did: the task, every model turn (with tokens, cost and
 latency when known), every tool call with its arguments and result, re-invocations, and how the
 run ended. `robocog run --trace FILE.jsonl` writes it; `replay/FILE.jsonl` replays its model turns.
+A picture a tool returned (look's camera image) is a file in `FILE.images/`, which the event names.
 """
 
 from __future__ import annotations
@@ -13,7 +14,8 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, Field, TypeAdapter
 
-TRACE_VERSION = 2
+#: 3: a tool result's pictures (`ToolResult.images`, files next to the trace).
+TRACE_VERSION = 3
 
 
 class _Event(BaseModel):
@@ -62,6 +64,12 @@ class ToolResult(_Event):
     content: str = Field(description="the text the model was given")
     structured: dict[str, Any] | None = None
     latency_s: float
+    images: list[str] = Field(
+        default=[],
+        description="the pictures the result carried, as files next to the trace: paths relative to the trace's "
+        "folder (TRACE.images/NNNN-TOOL.png), never the bytes",
+    )
+    images_sent: bool = Field(default=False, description="the pictures went to the model (a vision run)")
 
 
 class Reinvoked(_Event):

@@ -130,6 +130,30 @@ class Request:
         """The conversation as OpenAI-style messages (system/user/assistant with tool_calls/tool)."""
         return neutral_messages(self.provider or "openai", self.body if isinstance(self.body, dict) else {})
 
+    def images(self) -> list[tuple[str, str]]:
+        """Every picture the request carries, as (role of its message, base64 data), in the provider's
+        own format: OpenAI `image_url` parts with data URLs, Anthropic `image` blocks with a base64
+        source (also inside tool results), Ollama's `images` lists."""
+        found: list[tuple[str, str]] = []
+
+        def walk(role: str, content: Any) -> None:
+            for part in content if isinstance(content, list) else []:
+                if not isinstance(part, dict):
+                    continue
+                if part.get("type") == "image_url":
+                    url = part["image_url"]["url"] if isinstance(part.get("image_url"), dict) else part["image_url"]
+                    found.append((role, str(url).split(",", 1)[-1]))
+                elif part.get("type") == "image" and isinstance(part.get("source"), dict):
+                    found.append((role, str(part["source"].get("data", ""))))
+                elif part.get("type") == "tool_result":
+                    walk(role, part.get("content"))
+
+        for message in self.messages:
+            role = str(message.get("role", ""))
+            walk(role, message.get("content"))
+            found.extend((role, str(image)) for image in message.get("images") or [])
+        return found
+
     @property
     def api_key(self) -> str | None:
         """The credential the client sent (Bearer token or x-api-key), if any."""

@@ -24,6 +24,7 @@ ROBOT_TOOLS = frozenset(
         "view_scratchpad",
         "end_task",
         "search_memory",
+        "look",
     }
 )
 

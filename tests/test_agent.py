@@ -26,6 +26,7 @@ from robocog.agent.trace import Trace
 from robocog.server.app import build_server
 from robocog.server.config import SessionConfig
 from robocog.shared.errors import ModelServiceError
+from robocog.shared.protocol import VISION_TOOLS
 from robocog.shared.trace import ModelTurn, ToolResult, TraceEvent, read_trace
 from tests.helpers import ROBOT_TOOLS, T1, T2, check_snapshot
 
@@ -97,7 +98,7 @@ async def test_replay_reproduces_a_recorded_run(tmp_path: Path) -> None:
     recorded = tmp_path / "run.jsonl"
 
     def results(events: list[TraceEvent]) -> list[tuple[str, bool, Any]]:
-        volatile = {"record_id", "when"}
+        volatile = {"record_id", "episode_id", "when"}
         return [
             (e.name, e.is_error, {k: v for k, v in (e.structured or {}).items() if k not in volatile})
             for e in events
@@ -222,7 +223,9 @@ def test_a_missing_api_key_names_the_variable(monkeypatch: pytest.MonkeyPatch) -
 
 async def test_control_tools_are_never_offered_to_the_model(memory_robot: Robot) -> None:
     names = {d["function"]["name"] for d in function_definitions(memory_robot.tools)}
-    assert names == ROBOT_TOOLS
+    assert names == ROBOT_TOOLS - VISION_TOOLS, "a text-only model is not offered the camera"
+    with_camera = {d["function"]["name"] for d in function_definitions(memory_robot.tools, vision=True)}
+    assert with_camera == ROBOT_TOOLS
 
 
 # --- the trace file ------------------------------------------------------------------------------

@@ -236,6 +236,8 @@ async def test_every_tool_result_conforms_to_its_output_schema(
     await call("place", True, location="Kitchen Shelf", position="top")
     await call("search_memory", True, query="put things away")
     await call("search_memory", False, query="x", k=0)
+    await call("look", True, direction="Kitchen Shelf", caption=True)
+    await call("look", False, direction="attic")
     await call("end_task", False, status="done", description="x", summary="y")
     await call("end_task", True, status="success", description="Put the cube away.", summary="done")
     await call("check_task", True, task_id="T1")

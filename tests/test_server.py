@@ -76,7 +76,7 @@ async def test_the_eval_profile_publishes_exactly_the_controls_clients_leave_out
 async def test_annotations_mark_read_only_tools_and_closed_world(plain_robot: Client) -> None:
     tools = {t.name: t for t in (await plain_robot.list_tools()).tools}
     read_only = {n for n, t in tools.items() if t.annotations and t.annotations.read_only_hint}
-    assert read_only == {"look_around", "view_scratchpad", "search_memory"}
+    assert read_only == {"look_around", "view_scratchpad", "search_memory", "look"}
     assert all(t.annotations and t.annotations.open_world_hint is False for t in tools.values())
     assert all(t.output_schema for t in tools.values())
 
@@ -181,8 +181,8 @@ async def test_scratchpad_round_trip(robot: Client) -> None:
     await call(robot, "add_to_scratchpad", text="Then the box.")
     _, data = await call(robot, "view_scratchpad")
     assert data["content"] == "Plan: cube first.\n\nThen the box."
-    is_error, data = await call(robot, "add_to_scratchpad", text="x" * 5000)
-    assert is_error and "2000" in data["message"]
+    is_error, data = await call(robot, "add_to_scratchpad", text="x" * 5000)  # refused at the edge
+    assert is_error and "at most 2000 are accepted" in data["text"]
 
 
 async def test_end_task_stores_the_report_and_search_finds_it(robot: Client) -> None:

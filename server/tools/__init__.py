@@ -5,10 +5,20 @@ Adding a tool: write `robocog/server/tools/NAME.py` with its run function and `T
 lists generically; the contract snapshot in tests/snapshots shows the change.
 """
 
-from robocog.server.tools import controls, end_task, grab, look_around, move_to, place, scratchpad, search_memory
+from robocog.server.tools import (
+    controls,
+    end_task,
+    grab,
+    look,
+    look_around,
+    move_to,
+    place,
+    scratchpad,
+    search_memory,
+)
 from robocog.server.tools.base import Tool
 
-#: Offered to models, in the paper's order.
+#: Offered to models, in the paper's order, then ours (look: the camera).
 ROBOT_TOOLS: tuple[Tool, ...] = (
     look_around.TOOL,
     move_to.TOOL,
@@ -18,6 +28,7 @@ ROBOT_TOOLS: tuple[Tool, ...] = (
     scratchpad.VIEW,
     end_task.TOOL,
     search_memory.TOOL,
+    look.TOOL,
 )
 
 #: The eval profile's harness controls (never offered to a model).
