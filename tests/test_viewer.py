@@ -1,0 +1,421 @@
+"""The viewers: the event bus behind the live page, and both pages in a real browser.
+
+The browser tests drive Debian's Chromium, headless, through Playwright (the `browser` extra;
+Playwright cannot download its own browser here, so it is pointed at the system's). Without
+Chromium or Playwright they skip and say how to install them. Screenshots are kept under
+build/screenshots/ as test artifacts.
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+import re
+import shutil
+import sys
+import tempfile
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
+from pathlib import Path
+from typing import Any, TextIO, cast
+
+import anyio
+import pytest
+from mcp import Client
+from mcp.client.stdio import StdioServerParameters, stdio_client
+from mcp_types import CallToolResult, ImageContent, TextContent
+
+from robocog.server.events import EventBus
+
+ROOT = Path(__file__).resolve().parent.parent
+SCREENSHOTS = ROOT / "build" / "screenshots"
+DATA = Path(__file__).parent / "data"
+INSTALL = (
+    "the browser tests need Chromium and Playwright: `apt-get install chromium` (as root; `make test` does it) "
+    "and `pip install -e '.[browser]'`"
+)
+
+
+def chromium() -> str:
+    """The system Chromium, or skip the test saying how to install it."""
+    path = shutil.which("chromium") or shutil.which("chromium-browser")
+    if path is None:
+        pytest.skip(f"no Chromium: {INSTALL}")
+    try:
+        import playwright.async_api  # noqa: F401
+    except ImportError:
+        pytest.skip(f"no Playwright: {INSTALL}")
+    return path
+
+
+def _result(text: str, *, image: bytes | None = None, structured: dict[str, Any] | None = None) -> CallToolResult:
+    content: list[TextContent | ImageContent] = [TextContent(type="text", text=text)]
+    if image is not None:
+        content.append(ImageContent(type="image", data=base64.b64encode(image).decode(), mime_type="image/png"))
+    return CallToolResult(content=content, structured_content=structured, is_error=False)
+
+
+# --- the event bus ---------------------------------------------------------------------------------
+
+
+@pytest.mark.anyio
+async def test_bus_publishes_each_call_and_its_result() -> None:
+    bus = EventBus()
+
+    async def call() -> CallToolResult:
+        return _result("{}", structured={"status": "success", "message": "moved to Kitchen Shelf", "path": ["A"]})
+
+    await bus.observe("move_to", {"location": "Kitchen Shelf"}, call, client="test/1")
+    started, finished = bus.since(0)
+    assert (started.kind, started.data["tool"], started.data["arguments"]) == (
+        "call",
+        "move_to",
+        {"location": "Kitchen Shelf"},
+    )
+    assert finished.kind == "result" and finished.data["call"] == started.seq
+    assert finished.data["summary"] == "moved to Kitchen Shelf" and finished.data["is_error"] is False
+    assert finished.data["structured"]["path"] == ["A"]
+    assert json.loads(finished.sse().decode().split("data: ", 1)[1])["tool"] == "move_to"
+
+
+@pytest.mark.anyio
+async def test_bus_reports_a_failed_call_and_reraises() -> None:
+    bus = EventBus()
+
+    async def call() -> CallToolResult:
+        raise ValueError("no location called Moon")
+
+    with pytest.raises(ValueError):
+        await bus.observe("move_to", {"location": "Moon"}, call)
+    result = bus.since(0)[-1]
+    assert result.data["is_error"] is True and "Moon" in result.data["summary"]
+
+
+@pytest.mark.anyio
+async def test_bus_keeps_a_bounded_backlog_and_tells_a_late_reader_of_the_gap() -> None:
+    bus = EventBus(backlog=10, images=2)
+    for i in range(20):
+
+        async def call(i: int = i) -> CallToolResult:
+            return _result(f"call {i}", image=b"png%d" % i)
+
+        await bus.observe("look", {"direction": "ahead"}, call)
+    assert len(bus.recent(100)) == 10
+    (gap,) = bus.since(0)
+    assert gap.kind == "gap" and gap.data["missed"] == 30
+    assert [e.seq for e in bus.since(35)] == list(range(36, 41))
+    kept = [seq for seq in range(1, 41) if bus.image(seq) is not None]
+    assert kept == [38, 40] and bus.image(40) == b"png19"
+
+
+@pytest.mark.anyio
+async def test_bus_keeps_the_verdicts_of_the_episode() -> None:
+    bus = EventBus()
+
+    async def ended() -> CallToolResult:
+        return _result("{}", structured={"status": "success", "message": "recorded", "episode": 1})
+
+    async def checked() -> CallToolResult:
+        return _result("{}", structured={"task_id": "T1", "success": False, "reason": "the mug is on the table"})
+
+    async def began() -> CallToolResult:
+        return _result("{}", structured={"status": "success", "message": "episode 2"})
+
+    await bus.observe("end_task", {"status": "success", "summary": "put all away", "description": "T1"}, ended)
+    await bus.observe("check_task", {"task_id": "T1"}, checked)
+    assert bus.verdicts["believed"]["status"] == "success" and bus.verdicts["truth"]["success"] is False
+    assert bus.since(0)[-1].data["verdicts"]["truth"]["reason"] == "the mug is on the table"
+    await bus.observe("begin_task", {"task_id": "T2"}, began)
+    assert bus.verdicts == {}
+
+
+@pytest.mark.anyio
+async def test_bus_follow_delivers_live_events_and_snapshots() -> None:
+    bus = EventBus()
+    seen: list[str] = []
+    reads = 0
+
+    async def snapshot() -> dict[str, Any]:
+        nonlocal reads
+        reads += 1
+        return {"robot": {"location": "Kitchen Shelf"}}
+
+    async def reader() -> None:
+        async for event in bus.follow(0):
+            assert event is not None
+            seen.append(event.kind)
+            if event.kind == "state":
+                bus.close()
+
+    async def call() -> CallToolResult:
+        return _result("ok", structured={"status": "success", "message": "ok"})
+
+    async with anyio.create_task_group() as tg:
+        tg.start_soon(reader)
+        tg.start_soon(bus.snapshots, snapshot)
+        await bus.observe("grab", {"object": "cube"}, call)
+    assert seen == ["call", "result", "state"] and reads == 1
+    assert bus.state == {"robot": {"location": "Kitchen Shelf"}}
+
+
+# --- the live viewer in a browser ------------------------------------------------------------------
+
+
+def _server_command() -> list[str]:
+    script = shutil.which("robocog-server", path=str(Path(sys.executable).parent))
+    return [script] if script else [sys.executable, "-m", "robocog.server.cli"]
+
+
+@asynccontextmanager
+async def live_server(data_dir: Path) -> AsyncIterator[tuple[Client, str]]:
+    """A real `robocog-server --view 0` over stdio, and the address its viewer announced."""
+    command, *rest = _server_command()
+    args = [*rest, "--profile", "eval", "--view", "0", "--data-dir", str(data_dir)]
+    with tempfile.NamedTemporaryFile("w+", suffix=".log") as log:
+        params = StdioServerParameters(command=command, args=args, env={"ANONYMIZED_TELEMETRY": "False"})
+        async with Client(stdio_client(params, errlog=cast(TextIO, log))) as client:
+            url = None
+            with anyio.fail_after(60):
+                while url is None:
+                    found = re.search(r"live viewer at (http://127\.0\.0\.1:\d+/)", Path(log.name).read_text())
+                    url = found.group(1) if found else None
+                    await anyio.sleep(0.05)
+            yield client, url
+
+
+@asynccontextmanager
+async def browser_page(executable: str) -> AsyncIterator[Any]:
+    from playwright.async_api import async_playwright
+
+    async with async_playwright() as pw:
+        browser = await pw.chromium.launch(executable_path=executable, headless=True, args=["--no-sandbox"])
+        try:
+            page = await browser.new_page(viewport={"width": 1280, "height": 800})
+            yield page
+        finally:
+            await browser.close()
+
+
+def screenshot_path(name: str) -> Path:
+    SCREENSHOTS.mkdir(parents=True, exist_ok=True)
+    return SCREENSHOTS / name
+
+
+@pytest.mark.anyio
+async def test_live_viewer_follows_a_client_over_stdio(tmp_path: Path) -> None:
+    executable = chromium()
+    async with live_server(tmp_path / "memory") as (client, url), browser_page(executable) as page:
+        await page.goto(url)
+        await page.wait_for_function("document.body.dataset.ready === 'true'", timeout=60_000)
+        assert await page.title() == "robocog · live"
+        start = await page.eval_on_selector("#map", "m => m.dataset.location")
+        assert start == await page.text_content("#robot-location")
+        assert start != "Kitchen Shelf"
+
+        grabbed = await client.call_tool("grab", {"object": "cube"})
+        assert not grabbed.is_error, grabbed.content
+        await page.wait_for_function("document.getElementById('robot-holding').textContent === 'cube'")
+
+        moved = await client.call_tool("move_to", {"location": "Kitchen Shelf"})
+        assert not moved.is_error, moved.content
+        await page.wait_for_function("document.getElementById('map').dataset.location === 'Kitchen Shelf'")
+        x = float(await page.eval_on_selector("#map", "m => m.dataset.robotX"))
+        y = float(await page.eval_on_selector("#map", "m => m.dataset.robotY"))
+        assert abs(x - 1.0) < 0.3 and abs(y - 4.85) < 0.3  # the shelf's spot on the map
+
+        row = page.locator("#stream li[data-tool='move_to']")
+        await row.locator(".summary").filter(has_text="Kitchen Shelf").wait_for()
+        assert "location=Kitchen Shelf" in (await row.locator(".args").text_content() or "")
+        assert await row.get_attribute("class") == "call done"
+
+        looked = await client.call_tool("look", {"direction": "left"})
+        assert not looked.is_error, looked.content
+        picture = page.locator("#stream li[data-tool='look'] img.thumb")
+        await picture.wait_for()
+        await page.wait_for_function("document.querySelector('#stream img.thumb').naturalWidth > 0")
+        await page.wait_for_function("(document.getElementById('camera').dataset.shows || '').includes('/api/images/')")
+        assert "what the agent saw" in (await page.text_content("#camera-caption") or "")
+
+        await client.call_tool("end_task", {"status": "success", "description": "T1", "summary": "tidied up"})
+        await client.call_tool("check_task", {"task_id": "T1"})
+        await page.wait_for_function("document.getElementById('verdict').dataset.truth === 'false'")
+        assert await page.get_attribute("#verdict", "data-believed") == "success"
+        assert await page.locator("#stream li").count() == 5
+
+        await page.wait_for_function("document.getElementById('camera').naturalWidth === 320")
+        await page.screenshot(path=str(screenshot_path("live-viewer.png")))
+
+
+# --- the results viewer ----------------------------------------------------------------------------
+
+
+@asynccontextmanager
+async def serving(app: Any) -> AsyncIterator[str]:
+    """`app` served by uvicorn on a free loopback port, for the test's duration."""
+    import socket
+
+    import uvicorn
+
+    sock = socket.socket()
+    sock.bind(("127.0.0.1", 0))
+    sock.listen(16)
+    sock.setblocking(False)
+    server = uvicorn.Server(uvicorn.Config(app, log_config=None, log_level="warning", lifespan="off"))
+    async with anyio.create_task_group() as tg:
+        tg.start_soon(lambda: server.serve(sockets=[sock]))
+        while not server.started:
+            await anyio.sleep(0.02)
+        try:
+            yield f"http://127.0.0.1:{sock.getsockname()[1]}/"
+        finally:
+            server.should_exit = True
+    sock.close()
+
+
+def study_with_a_trace(folder: Path) -> Path:
+    """The committed small results file, its first attempt given a trace with a picture (as
+    `robocog eval` and the camera write them: TRACE.jsonl, TRACE.images/NNNN-look.png)."""
+    import numpy as np
+
+    from robocog.server.world.camera import encode_png
+    from robocog.shared.trace import ModelTurn, RunFinished, RunStarted, ToolCall, ToolResult, Verdict, dump_event
+
+    rows = [json.loads(line) for line in (DATA / "results_small.jsonl").read_text().splitlines() if line.strip()]
+    traces = folder / "results.traces" / "alpha" / "trial-0"
+    (traces / "iter-0-T1.images").mkdir(parents=True)
+    pixels = np.zeros((24, 32, 3), dtype=np.uint8)
+    pixels[:, :16] = (200, 40, 40)
+    (traces / "iter-0-T1.images" / "0001-look.png").write_bytes(encode_png(pixels))
+    events = [
+        RunStarted(
+            t=0, task="Put away all the items into the shelf.", model="alpha/model", server="test", tools=["look"]
+        ),
+        ModelTurn(
+            t=0.5, invocation=1, step=1, message={"role": "assistant", "content": "I will look first."}, latency_s=0.5
+        ),
+        ToolCall(t=0.6, invocation=1, id="c1", name="look", arguments={"direction": "ahead"}, raw_arguments="{}"),
+        ToolResult(
+            t=0.7,
+            invocation=1,
+            id="c1",
+            name="look",
+            is_error=False,
+            content='{"status": "success", "message": "a red cube ahead"}',
+            structured={"status": "success", "message": "a red cube ahead"},
+            latency_s=0.05,
+            images=["iter-0-T1.images/0001-look.png"],
+        ),
+        Verdict(t=0.8, task_id="T1", success=True, reason="hand-made"),
+        RunFinished(
+            t=0.9,
+            outcome="ended",
+            ended=True,
+            stopped=False,
+            believed_success=True,
+            true_success=True,
+            invocations=1,
+            tool_calls=1,
+            tokens_in=10,
+            tokens_out=5,
+            llm_latency_s=0.5,
+            wall_s=0.9,
+        ),
+    ]
+    (traces / "iter-0-T1.jsonl").write_text("".join(dump_event(e) + "\n" for e in events) + "not json\n")
+    rows[0]["trace"] = "results.traces/alpha/trial-0/iter-0-T1.jsonl"
+    rows[1]["trace"] = "../outside.jsonl"  # never read: outside the results file's folder
+    results = folder / "results.jsonl"
+    results.write_text("".join(json.dumps(r) + "\n" for r in rows))
+    return results
+
+
+@pytest.mark.anyio
+async def test_results_viewer_lists_the_attempts_and_opens_a_trace(tmp_path: Path) -> None:
+    from robocog.agent.view import ResultsViewer
+
+    executable = chromium()
+    viewer = ResultsViewer(study_with_a_trace(tmp_path))
+    viewer.prepare()
+    try:
+        async with serving(viewer.app()) as url, browser_page(executable) as page:
+            await page.goto(url)
+            await page.wait_for_function("document.body.dataset.ready === 'true'")
+            rows = page.locator("#attempts tbody tr")
+            assert await rows.count() == 13
+            assert await page.text_content("#shown-count") == "13 of 13 attempts"
+            await page.select_option("#f-model", "beta")
+            beta = await rows.count()
+            assert 0 < beta < 13
+            assert set(await page.locator("#attempts tbody tr td:nth-child(2)").all_text_contents()) == {"beta"}
+            await page.select_option("#f-model", "")
+            await page.select_option("#f-truth", "false")
+            assert await page.locator("#attempts tbody tr td:nth-child(8)").all_text_contents() == ["failure"] * (
+                await rows.count()
+            )
+            await page.select_option("#f-truth", "")
+
+            await rows.first.click()
+            steps = page.locator("#steps li")
+            await steps.first.wait_for()
+            kinds = [await s.get_attribute("data-type") for s in await steps.all()]
+            assert kinds == [
+                "run_started",
+                "model_turn",
+                "tool_call",
+                "tool_result",
+                "verdict",
+                "run_finished",
+                "unreadable",
+            ]
+            picture = page.locator("#steps li[data-type='tool_result'] img")
+            await page.wait_for_function("document.querySelector('#steps img').naturalWidth === 32")
+            assert "0001-look.png" in (await picture.get_attribute("alt") or "")
+            assert page.url.endswith("#attempt=0")
+            await page.screenshot(path=str(screenshot_path("results-viewer.png")))
+
+            outside = await page.request.get(url + "api/attempts/1/trace")
+            assert outside.status == 404
+            escape = await page.request.get(url + "api/attempts/0/files/..%2F..%2F..%2F..%2Fresults.jsonl")
+            assert escape.status == 404
+
+            await page.click("#tab-report")
+            report = page.locator("#pane-report")
+            assert "Success" in (await report.text_content() or "")
+            assert await report.locator("table").count() > 0
+            await page.wait_for_function(
+                "[...document.querySelectorAll('#pane-report img')].some(i => i.naturalWidth > 0)"
+            )
+            await page.screenshot(path=str(screenshot_path("results-report.png")), full_page=False)
+    finally:
+        viewer.close()
+
+
+def test_view_command_refuses_a_missing_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from robocog.agent.cli import main
+
+    assert main(["view", str(tmp_path / "nothing.jsonl")]) == 2
+    assert "no such results file" in capsys.readouterr().err
+
+
+def test_run_passes_view_to_the_server_it_spawns() -> None:
+    from robocog.agent.cli import _check_options, _server_spec, build_parser
+    from robocog.shared.errors import ConfigError
+
+    spec = _server_spec(build_parser().parse_args(["run", "T1", "--view"]))
+    assert spec.extra_args[-2:] == ["--view", "8766"]
+    spec = _server_spec(build_parser().parse_args(["run", "T1", "--view", "9001"]))
+    assert spec.extra_args[-2:] == ["--view", "9001"]
+    remote = build_parser().parse_args(["run", "T1", "--view", "--url", "http://127.0.0.1:8765/mcp"])
+    with pytest.raises(ConfigError, match="--view"):
+        _check_options(remote)
+
+
+def test_server_view_flag() -> None:
+    from robocog.server.cli import build_parser
+
+    parser = build_parser()
+    assert parser.parse_args([]).view is None
+    assert parser.parse_args(["--view"]).view == 8766
+    assert parser.parse_args(["--view", "0"]).view == 0
+    with pytest.raises(SystemExit):
+        parser.parse_args(["--view", "70000"])
