@@ -8,7 +8,7 @@ export LITELLM_LOCAL_MODEL_COST_MAP := True
 export ANONYMIZED_TELEMETRY := False
 export PYTHONDONTWRITEBYTECODE := 1
 
-.PHONY: help demo world-demo test bench lint format server inspector conformance clean
+.PHONY: help demo world-demo test chromium bench fuzz lint format server inspector conformance clean
 
 help: ## Show this help
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-12s %s\n", $$1, $$2}'
@@ -16,7 +16,7 @@ help: ## Show this help
 $(STAMP): pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e ".[dev,inspect]"
+	$(BIN)/python -m pip install --quiet -e ".[dev,inspect,browser,ray]"
 	@touch $(STAMP)
 
 # Type checkers cannot follow setuptools' editable finder through our package-dir mapping, so mypy
@@ -36,11 +36,24 @@ demo: $(STAMP) ## The scripted planner does T1 then T2 through MCP; prints the t
 world-demo: $(STAMP) ## T1 then T2 as fixed action sequences on the world itself (no MCP, no model)
 	$(BIN)/python -m robocog.server.world.demo
 
-test: $(STAMP) ## Run the test suite (offline; no API key needed)
+test: $(STAMP) chromium ## Run the test suite (offline; no API key needed)
 	$(BIN)/python -m pytest -q
 
-bench: $(STAMP) ## Print the performance figures as JSON
+# The viewers' browser tests drive the system's Chromium (Playwright cannot download its own here):
+# installed when missing and we are root, else how to install it is printed (those tests then skip).
+chromium:
+	@if command -v chromium >/dev/null 2>&1; then :; \
+	elif [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
+		echo "installing Chromium for the browser tests"; \
+		apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null; \
+	else echo "Chromium is missing: the browser tests will skip (install it: sudo apt-get install chromium)"; fi
+
+bench: $(STAMP) chromium ## Print the performance figures as JSON
 	$(BIN)/python tests/bench/run.py
+
+fuzz: $(STAMP) ## Attack the server: a long Hypothesis run, then 25,000 hostile calls and 32 HTTP clients (JSON)
+	ROBOCOG_FUZZ=long $(BIN)/python -m pytest -q tests/test_fuzz.py
+	$(BIN)/python tests/bench/fuzz.py
 
 lint: $(STAMP) $(TYPES) ## ruff check + format check, then mypy (shared strict; server, agent, tests)
 	$(BIN)/ruff check .

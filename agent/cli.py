@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import json
+import math
 import os
 import sys
 import threading
@@ -64,6 +65,12 @@ def _add_model(p: argparse.ArgumentParser) -> None:
         metavar="KEY=VALUE",
         help="extra completion parameter (JSON value), repeatable, e.g. --param p=0.5",
     )
+    g.add_argument(
+        "--vision",
+        action="store_true",
+        help="the model takes images: show it the pictures tools return (look's camera view); "
+        "without it, a one-line note stands in for each picture",
+    )
     g.add_argument("--max-invocations", type=int, default=10, help="re-invocations before a refusal (default 10)")
     g.add_argument("--max-steps", type=int, default=60, help="model turns per invocation (default 60)")
     g.add_argument("--timeout", type=float, default=180.0, help="seconds per model or tool call (default 180)")
@@ -88,6 +95,7 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("tasks", nargs="+", metavar="TASK", help="an instruction, or a task id such as T1")
     _add_model(run)
     _add_connection(run)
+    _add_view(run)
     chat = sub.add_parser(
         "chat",
         help="type tasks one after another to the same robot",
@@ -96,6 +104,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     _add_model(chat)
     _add_connection(chat)
+    _add_view(chat)
     ev = sub.add_parser("eval", help="run a study (the paper's protocol) from a YAML config")
     ev.add_argument("config", type=Path, help="study config, e.g. assets/eval/scripted.yaml")
     ev.add_argument("--out", type=Path, help="results file (JSONL); default: the config's `out`")
@@ -111,6 +120,15 @@ def build_parser() -> argparse.ArgumentParser:
         help="exit 0 even when attempts errored (a model service or server failure; --resume reruns them)",
     )
     ev.add_argument("--quiet", action="store_true", help="no progress bar")
+    ev.add_argument(
+        "--ray",
+        nargs="?",
+        const="",
+        default=None,
+        metavar="ADDRESS",
+        help="run the units on a Ray cluster, e.g. --ray 10.0.0.5:6379 (no address: $RAY_ADDRESS, else the "
+        "cluster `ray start` began here); --workers actors each own a robot (needs robocog[ray])",
+    )
     b = sub.add_parser("bench", help="time a server as an agent sees it (episode, each tool, the model calls)")
     b.add_argument("--task", default="T1", help="task id to run (default T1)")
     b.add_argument("--runs", type=int, default=5, help="episodes, each from a fresh world (default 5)")
@@ -126,6 +144,10 @@ def build_parser() -> argparse.ArgumentParser:
         default="ours",
         help="results.csv: our values (default) or the published encoding (0/1, tasks 1/2, trials from 1)",
     )
+    vw = sub.add_parser("view", help="browse a study in a web page: tables, figures, attempts and their traces")
+    vw.add_argument("results", type=Path, help="results file written by robocog eval")
+    vw.add_argument("--port", type=int, default=8767, help="port on 127.0.0.1 (default: 8767; 0 picks a free one)")
+    vw.add_argument("--title", default=None, help="the report's title")
     con = sub.add_parser(
         "contract", help="dump a server's MCP contract, or check it against a baseline (any MCP server)"
     )
@@ -135,17 +157,75 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _add_view(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--view",
+        nargs="?",
+        type=int,
+        const=8766,
+        default=None,
+        metavar="PORT",
+        help="the spawned server also serves the live viewer on http://127.0.0.1:PORT/ (default port: 8766)",
+    )
+
+
 def _params(items: list[str]) -> dict[str, Any]:
+    from robocog.shared.errors import ConfigError
+
     out: dict[str, Any] = {}
     for item in items:
         key, sep, value = item.partition("=")
         if not sep or not key:
-            raise SystemExit(f"robocog: --param wants KEY=VALUE, got {item!r}")
+            raise ConfigError(f"--param: wants KEY=VALUE, got {item!r}")
         try:
             out[key] = json.loads(value)
         except json.JSONDecodeError:
             out[key] = value
+        if isinstance(out[key], float) and not math.isfinite(out[key]):
+            raise ConfigError(f"--param: {key}: must be a finite number, not {value}")
     return out
+
+
+def _check_options(args: argparse.Namespace) -> None:
+    """The options of `run`, `chat` and `bench`, checked before anything starts (as a study config's
+    same fields are); a spawned server's scene is checked here too. `ConfigError` names the option."""
+    import shlex
+
+    from robocog.agent.commands import check_server_args
+    from robocog.shared.errors import ConfigError
+
+    _params(args.param)
+    for flag, value in (("--max-invocations", args.max_invocations), ("--max-steps", args.max_steps)):
+        if value < 1:
+            raise ConfigError(f"{flag}: must be at least 1, not {value}")
+    if not (math.isfinite(args.timeout) and args.timeout > 0):
+        raise ConfigError(f"--timeout: must be a positive number of seconds, not {args.timeout}")
+    if args.temperature is not None and not (math.isfinite(args.temperature) and args.temperature >= 0):
+        raise ConfigError(f"--temperature: must be a finite number, at least 0, not {args.temperature}")
+    if getattr(args, "runs", 1) < 1:
+        raise ConfigError(f"--runs: must be at least 1, not {args.runs}")
+    if getattr(args, "view", None) is not None and not 0 <= args.view <= 65535:
+        raise ConfigError(f"--view: {args.view} is not a port number (0-65535)")
+    if args.url:
+        for flag, value in (
+            ("--server-cmd", args.server_cmd),
+            ("--scene", args.scene),
+            ("--data-dir", args.data_dir),
+            ("--memory-namespace", args.memory_namespace),
+            ("--view", getattr(args, "view", None)),
+        ):
+            if value is not None:
+                raise ConfigError(
+                    f"--url and {flag} cannot be used together: {flag} configures a server robocog starts, "
+                    "--url connects to one already running"
+                )
+        return
+    try:
+        command = shlex.split(args.server_cmd) if args.server_cmd else []
+    except ValueError as exc:
+        raise ConfigError(f"--server-cmd: {exc}") from None
+    scene = ["--scene", args.scene] if args.scene is not None else []
+    check_server_args(command + scene, data_dir=args.data_dir is not None, where="--server-cmd")
 
 
 def _settings(args: argparse.Namespace) -> AgentSettings:
@@ -162,6 +242,7 @@ def _settings(args: argparse.Namespace) -> AgentSettings:
         seed=args.seed,
         temperature=args.temperature,
         params=_params(args.param),
+        vision=args.vision,
     )
 
 
@@ -176,6 +257,7 @@ def _server_spec(args: argparse.Namespace) -> ServerSpec:
         ("--seed", args.seed),
         ("--scene", args.scene),
         ("--search-k", PROTOCOLS[args.protocol].search_k if args.protocol != "robocog" else None),
+        ("--view", getattr(args, "view", None)),
     ):
         if value is not None:
             extra += [flag, str(value)]
@@ -206,6 +288,8 @@ async def _run_tasks(args: argparse.Namespace, tasks: Sequence[str] | None, load
     console = make_console()
     ok = True
     conversation: list[dict[str, Any]] = []  # carried from task to task under the paper's protocol
+    if getattr(args, "view", None):
+        print(f"robocog: live viewer at http://127.0.0.1:{args.view}/", file=sys.stderr)
     async with connect(_server_spec(args)) as robot:
         if loader is not None:
             await asyncio.to_thread(loader.join)
@@ -291,10 +375,15 @@ def _bench(args: argparse.Namespace) -> int:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    loader = _preload_litellm(args.model) if args.command in ("run", "chat") else None  # seconds: start at once
-    from robocog.agent.connection import leaf_message
-    from robocog.shared.errors import ServerConnectionError
+    from robocog.shared.errors import ConfigError, ServerConnectionError
 
+    try:
+        if args.command in ("run", "chat", "bench"):
+            _check_options(args)
+    except ConfigError as exc:
+        print(f"robocog: {exc}", file=sys.stderr)
+        return 2
+    loader = _preload_litellm(args.model) if args.command in ("run", "chat") else None  # seconds: start at once
     try:
         if args.command == "run":
             return asyncio.run(_run_tasks(args, args.tasks, loader))
@@ -311,16 +400,22 @@ def main(argv: Sequence[str] | None = None) -> int:
             return report_command(args)
         if args.command == "bench":
             return _bench(args)
+        if args.command == "view":
+            from robocog.agent.view import view_command
+
+            return view_command(args)
         if args.command == "contract":
             from robocog.agent.contract import main as contract_main
 
             return contract_main(args)
     except KeyboardInterrupt:
         return 130
-    except ServerConnectionError as exc:
+    except (ConfigError, ServerConnectionError) as exc:
         print(f"robocog: {exc}", file=sys.stderr)
         return 2
     except (OSError, BaseExceptionGroup) as exc:
+        from robocog.agent.connection import leaf_message
+
         print(f"robocog: cannot reach the robot server: {leaf_message(exc)}", file=sys.stderr)
         return 2
     return 2

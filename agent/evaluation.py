@@ -46,6 +46,14 @@ def slug(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9._-]+", "_", text).strip("_") or "model"
 
 
+def episode_id(study: str, model: str, seed: int, trial: int, iteration: int, task: str) -> str:
+    """The server-side episode id of an attempt (begin_task): the same for a rerun of the attempt
+    (`--resume` after a crash), so the server replaces its memory record instead of adding a second."""
+    return (
+        "eval-" + hashlib.sha256(f"{study}\x00{model}\x00{seed}:{trial}:{iteration}:{task}".encode()).hexdigest()[:32]
+    )
+
+
 def model_seed(seed: int, trial: int, iteration: int, task: str) -> int:
     """A seed for the model per attempt (independent draws for stochastic models)."""
     digest = hashlib.sha256(f"{seed}:{trial}:{iteration}:{task}".encode()).digest()
@@ -73,6 +81,26 @@ def read_rows(path: Path) -> list[AttemptRow]:
                 break
             raise ConfigError(f"{path}: line {number} is not a result row: {exc.__class__.__name__}") from exc
     return rows
+
+
+def mend_torn_tail(path: Path) -> None:
+    """Before a resumed run appends to `path`: cut a torn last line (the row `read_rows` dropped,
+    whose attempt reruns), and end a whole last row that lost its newline, so every appended row
+    starts a line of its own."""
+    if not path.exists():
+        return
+    data = path.read_bytes()
+    body = data.rstrip()
+    start = body.rfind(b"\n") + 1
+    try:
+        AttemptRow.model_validate_json(body[start:])
+    except ValueError:
+        with path.open("r+b") as f:
+            f.truncate(start)
+        return
+    if not data.endswith(b"\n"):
+        with path.open("ab") as f:
+            f.write(b"\n")
 
 
 def runnable(task_id: str, succeeded: set[str], requires: Requirements) -> bool:
@@ -182,7 +210,13 @@ class Runner:
                     continue
                 messages = conversation if protocol.continue_conversation else []
                 try:
-                    await _control(robot, "begin_task", task_id=task_id, keep_scratchpad=protocol.keep_scratchpad)
+                    await _control(
+                        robot,
+                        "begin_task",
+                        task_id=task_id,
+                        keep_scratchpad=protocol.keep_scratchpad,
+                        episode_id=episode_id(cfg.name, spec.name, seed, trial, iteration, task_id),
+                    )
                     row = await self.attempt(robot, spec, trial, iteration, task_id, messages)
                 except ServerBroke as broke:
                     await self.write(broke.row)
@@ -232,6 +266,7 @@ class Runner:
             api_key=resolve_api_key(spec),
             seed=model_seed(cfg.seed, trial, iteration, task_id),
             params=dict(spec.params),
+            vision=spec.vision,
         )
         base = {
             "model": spec.name,
@@ -303,15 +338,19 @@ class Runner:
     # --- workers ---------------------------------------------------------------------------------
 
     async def worker(self, index: int, queue: asyncio.Queue[tuple[ModelSpec, int, int]]) -> None:
-        while not queue.empty():
+        """Take units off the queue until it is empty. A unit whose server broke goes on here, on a new
+        server over this worker's data directory (its memory), never on another worker's."""
+        unit: tuple[ModelSpec, int, int] | None = None
+        while unit is not None or not queue.empty():
             try:
                 async with connect(self.spec(index)) as robot:
-                    while not queue.empty():
-                        spec, trial, start = queue.get_nowait()
+                    while unit is not None or not queue.empty():
+                        spec, trial, start = unit or queue.get_nowait()
+                        unit = None
                         resume_at = await self.run_unit(robot, spec, trial, start)
                         if resume_at is not None:
                             if resume_at < self.config.memory_iterations:
-                                queue.put_nowait((spec, trial, resume_at))
+                                unit = (spec, trial, resume_at)
                             break  # reconnect: a new server, the same memory on disk
             except ServerConnectionError as exc:
                 raise ServerConnectionError(f"worker {index}: {exc}") from exc
@@ -364,12 +403,15 @@ async def run_eval(
     server_command: list[str] | None = None,
     on_progress: Callable[[Progress], None] | None = None,
     on_error: Callable[[AttemptRow], None] | None = None,
+    ray_address: str | None = None,
 ) -> list[AttemptRow]:
-    """Run the study; returns every row of the results file."""
+    """Run the study; returns every row of the results file. With `ray_address` (a cluster's
+    address, or "" for Ray's default), the units run as Ray actors (`robocog.agent.distributed`)."""
     out.parent.mkdir(parents=True, exist_ok=True)
     rows = read_rows(out)
     if rows and not resume:
         raise ConfigError(f"{out} already holds {len(rows)} results: use --resume to continue, or another --out")
+    mend_torn_tail(out)
     for spec in config.models:  # a missing key fails the study before any server starts
         check_credentials(spec.model, spec.api_base, resolve_api_key(spec))
     runner = Runner(config, out, server_command)
@@ -381,7 +423,11 @@ async def run_eval(
     for unit in pending:
         queue.put_nowait(unit)
     n = max(1, min(workers or config.workers, len(pending) or 1))
-    if pending:
+    if pending and ray_address is not None:
+        from robocog.agent.distributed import run_on_ray
+
+        await run_on_ray(runner, queue, n, ray_address or None)
+    elif pending:
         # LiteLLM's import and first call (seconds) happen while the servers start.
         await asyncio.to_thread(warm_up_litellm, [m.model for m in config.models])
         async with asyncio.TaskGroup() as tg:

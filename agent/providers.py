@@ -4,6 +4,11 @@
 - `scripted/overconfident`: sometimes forgets an object and still reports success. The probability
   is `scripted/overconfident` with `p` in the completion parameters (default 0.3), seeded by `seed`.
 - `scripted/refuser`: never acts and never ends the task.
+- Each scripted model takes `latency_s` (seconds per model turn, default 0) and `jitter_s` (a
+  uniform draw in [-jitter_s, +jitter_s] added to it, seeded by `seed` and the turn's number, so
+  reproducible) in the completion parameters: a study runs "as if" each turn took real time. The
+  wait is `asyncio.sleep` in `acompletion` (episodes in flight overlap their waits) and `time.sleep`
+  in `completion`; it changes the timing of a run, never its decisions.
 - `replay/PATH.jsonl`: replays the assistant turns recorded in a trace file, in order.
 
 Import this module only where LiteLLM is used: importing LiteLLM costs seconds.
@@ -11,7 +16,10 @@ Import this module only where LiteLLM is used: importing LiteLLM costs seconds.
 
 from __future__ import annotations
 
+import asyncio
 import json
+import math
+import random
 import time
 from functools import cache
 from pathlib import Path
@@ -73,10 +81,49 @@ def call_message(call: Call, call_number: int) -> dict[str, Any]:
     }
 
 
+def _seconds(params: dict[str, Any], name: str, model: str) -> float:
+    """A non-negative, finite number of seconds from the completion parameters (0 when absent)."""
+    value = params.get(name, (params.get("extra_body") or {}).get(name, 0.0))
+    try:
+        seconds = float(value)
+    except (TypeError, ValueError):
+        seconds = math.nan
+    if not (math.isfinite(seconds) and seconds >= 0):
+        raise litellm.BadRequestError(
+            message=f"{model}: {name} must be a non-negative number of seconds, not {value!r}",
+            model=model,
+            llm_provider="scripted",
+        )
+    return seconds
+
+
+def turn_delay(latency_s: float, jitter_s: float, seed: int | None, turn: int) -> float:
+    """How long model turn `turn` (1, 2, ...) of a scripted model takes: `latency_s` plus a uniform
+    draw in [-jitter_s, +jitter_s] (never below 0), the same for the same seed and turn. The draw
+    has its own generator: the model's decisions do not depend on the latency."""
+    if not jitter_s:
+        return latency_s
+    draw = random.Random(f"latency:{seed}:{turn}").uniform(-jitter_s, jitter_s)
+    return max(0.0, latency_s + draw)
+
+
 class ScriptedProvider(CustomLLM):
-    """`scripted/<variant>`: the planner's decision as a tool call."""
+    """`scripted/<variant>`: the planner's decision as a tool call, after the turn's latency."""
 
     def completion(self, model: str, messages: list, *args: Any, **kwargs: Any) -> ModelResponse:
+        response, delay = self._turn(model, messages, kwargs)
+        if delay:
+            time.sleep(delay)
+        return response
+
+    async def acompletion(self, model: str, messages: list, *args: Any, **kwargs: Any) -> ModelResponse:
+        response, delay = self._turn(model, messages, kwargs)
+        if delay:
+            await asyncio.sleep(delay)
+        return response
+
+    def _turn(self, model: str, messages: list, kwargs: dict[str, Any]) -> tuple[ModelResponse, float]:
+        """The response to `messages` and how long to wait before giving it."""
         variant = model.split("/")[-1]
         if not is_variant(variant):
             raise litellm.BadRequestError(
@@ -88,14 +135,12 @@ class ScriptedProvider(CustomLLM):
         params = kwargs.get("optional_params") or {}
         seed = params.get("seed")
         p = float(params.get("p", (params.get("extra_body") or {}).get("p", 0.3)))
-        calls_so_far = sum(
-            len(m.get("tool_calls") or []) for m in map(as_dict, messages) if m.get("role") == "assistant"
-        )
+        latency_s, jitter_s = _seconds(params, "latency_s", model), _seconds(params, "jitter_s", model)
+        assistant = [m for m in map(as_dict, messages) if m.get("role") == "assistant"]
+        calls_so_far = sum(len(m.get("tool_calls") or []) for m in assistant)
         call = decide(messages, variant, seed=seed, p=p)
-        return _response(f"scripted/{variant}", call_message(call, calls_so_far + 1), _prompt_chars(messages))
-
-    async def acompletion(self, model: str, messages: list, *args: Any, **kwargs: Any) -> ModelResponse:
-        return self.completion(model, messages, *args, **kwargs)
+        response = _response(f"scripted/{variant}", call_message(call, calls_so_far + 1), _prompt_chars(messages))
+        return response, turn_delay(latency_s, jitter_s, seed, len(assistant) + 1)
 
 
 @cache
