@@ -10,6 +10,19 @@ DRIVER_META_KEY = "robocog/driver"
 #: The eval profile's controls for harnesses: a client never offers them to the model it drives.
 CONTROL_TOOLS = frozenset({"reset_world", "begin_task", "check_task", "clear_memory"})
 
+#: The eight robot tools of the paper, in its order: what a text-only model is offered (robocog's own
+#: client; robocog.inspect). The server's ROBOT_TOOLS are these and the VISION_TOOLS (a test holds it).
+PAPER_TOOLS: tuple[str, ...] = (
+    "look_around",
+    "move_to",
+    "grab",
+    "place",
+    "add_to_scratchpad",
+    "view_scratchpad",
+    "end_task",
+    "search_memory",
+)
+
 #: Tools whose answer is a picture: a client offers them only to a model that takes images (robocog's
 #: `--vision`), and never under the paper's protocol, whose models had the eight tools of the paper.
 VISION_TOOLS = frozenset({"look"})

@@ -49,19 +49,11 @@ from inspect_ai.tool import (
 
 from robocog.agent.planner import decide
 from robocog.agent.protocols import PROTOCOLS
+from robocog.shared.protocol import PAPER_TOOLS
 from robocog.shared.tasks import TaskSpec, load_tasks
 
-#: The eight tools offered to the model, in the paper's order (the server's ROBOT_TOOLS).
-ROBOT_TOOL_NAMES: tuple[str, ...] = (
-    "look_around",
-    "move_to",
-    "grab",
-    "place",
-    "add_to_scratchpad",
-    "view_scratchpad",
-    "end_task",
-    "search_memory",
-)
+#: The eight tools offered to the model, in the paper's order (never a control, never the camera).
+ROBOT_TOOL_NAMES: tuple[str, ...] = PAPER_TOOLS
 
 #: Store keys the solver writes for the scorer.
 VERDICT_KEY = "robocog:verdict"
