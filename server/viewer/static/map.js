@@ -75,21 +75,22 @@ window.RobocogMap = (function () {
     }
     if (!world) return;
     const robot = world.robot;
-    const stacked = {};
+    const stacked = [];  // label anchors: objects within 0.4 m of one (a shelf's layers) share it, a line each
     const objects = world.objects.slice().sort((a, b) => b.xyz[2] - a.xyz[2]);
     for (const o of objects) {
       const spec = scene.objects[o.object] || { color: [0.5, 0.5, 0.5, 1], size: [0.1, 0.1] };
       let x = o.xyz[0], y = o.xyz[1];
       if (o.state === "held") { x = robot.xyz[0]; y = robot.xyz[1]; }
-      const key = `${x.toFixed(1)},${y.toFixed(1)}`;
-      const slot = stacked[key] || 0; stacked[key] = slot + 1;
+      let anchor = stacked.find((a) => Math.abs(a.x - x) < 0.4 && Math.abs(a.y - y) < 0.4);
+      if (!anchor) { anchor = { x, y, n: 0 }; stacked.push(anchor); }
+      const slot = anchor.n++;
       const half = Math.max(5 * d, (spec.size[0] * T.s) / 2);
       ctx.fillStyle = rgb(spec.color, 1); ctx.strokeStyle = "#000"; ctx.lineWidth = d;
       if (o.state !== "held") {
         ctx.fillRect(T.px(x) - half, T.py(y) - half, 2 * half, 2 * half);
         ctx.strokeRect(T.px(x) - half, T.py(y) - half, 2 * half, 2 * half);
         ctx.fillStyle = "#111"; ctx.font = font(11, "bold");
-        ctx.fillText(o.object + (o.position ? ` (${o.position})` : ""), T.px(x) + half + 3 * d, T.py(y) - half + (4 + 12 * slot) * d);
+        ctx.fillText(o.object + (o.position ? ` (${o.position})` : ""), T.px(anchor.x) + half + 3 * d, T.py(anchor.y) - half + (4 + 12 * slot) * d);
       }
     }
     const [sx, sy] = scene.robot.size;
