@@ -94,7 +94,7 @@ def eval_command(args: argparse.Namespace) -> int:
     except OSError as exc:
         print(f"robocog: {origin}: cannot create {out.parent}: {exc.strerror or exc}", file=sys.stderr)
         return 2
-    server = shlex.split(args.server_cmd) if args.server_cmd else None
+    server = command or None  # split above, where it was checked
     # Imported once the config holds (the MCP client takes seconds to import).
     from rich.progress import (
         BarColumn,

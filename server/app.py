@@ -16,7 +16,7 @@ import inspect
 import json
 import logging
 import time
-from collections.abc import AsyncIterator, Callable, Hashable
+from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Annotated, Any, Literal, TypeVar
@@ -24,7 +24,6 @@ from typing import TYPE_CHECKING, Annotated, Any, Literal, TypeVar
 import anyio
 import anyio.from_thread
 import anyio.to_thread
-from mcp.server.connection import Connection
 from mcp.server.context import ServerRequestContext
 from mcp.server.mcpserver import Context, MCPServer
 from mcp.server.mcpserver.exceptions import ToolError
@@ -147,11 +146,6 @@ class Access:
 
     def asks_consent(self, tool: Tool[Any]) -> bool:
         return self.gate is not None and tool.kind == "robot" and tool.changes_world
-
-
-def _driver(ctx: Context[AppState]) -> tuple[Hashable, Connection | None]:
-    driver = Driver.of(ctx.request_context)
-    return driver.key, driver.connection
 
 
 def register_tool(mcp: MCPServer[AppState], tool: Tool[Any], access: Access) -> None:
@@ -352,7 +346,7 @@ def build_server(
     install_log_handlers(log_level)
     guard = Access(
         lease=RobotLease(idle_s=access.lease_idle_s),
-        gate=ConsentGate(_driver) if access.confirm_actions else None,
+        gate=ConsentGate() if access.confirm_actions else None,
     )
     published = [t for t in ROBOT_TOOLS if access.allow_tools is None or t.name in access.allow_tools]
     for tool in published + list(CONTROL_TOOLS if profile == "eval" else ()):

@@ -41,12 +41,6 @@ environment:
 """
 
 
-def http_loopback(host: str) -> bool:
-    from robocog.server.http import is_loopback
-
-    return is_loopback(host)
-
-
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="robocog-server",
@@ -193,7 +187,7 @@ def _search_k(text: str) -> int:
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     from robocog.server.config import AccessConfig
-    from robocog.server.http import HttpOptions, generate_token, machine_names, serve
+    from robocog.server.http import HttpOptions, generate_token, is_loopback, machine_names, serve
     from robocog.shared.errors import ConfigError
 
     token = generate_token() if args.auth_token == "generate" else args.auth_token
@@ -205,7 +199,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         allowed_origins=tuple(args.allowed_origin),
         max_sessions=args.max_sessions,
         session_idle_s=args.session_idle_s,
-        machine_names=() if args.transport == "stdio" or http_loopback(args.host) else machine_names(),
+        machine_names=() if args.transport == "stdio" or is_loopback(args.host) else machine_names(),
     )
     access = AccessConfig(
         auth_token=token if args.transport == "http" else None,

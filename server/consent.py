@@ -11,7 +11,7 @@ server without the flag.
 from __future__ import annotations
 
 import inspect
-from collections.abc import Callable, Hashable
+from collections.abc import Hashable
 from typing import Annotated, Any, Literal
 
 from mcp.server.elicitation import AcceptedElicitation, ElicitationResult
@@ -20,6 +20,7 @@ from mcp.server.mcpserver.exceptions import ToolError
 from mcp.server.mcpserver.resolve import Elicit, Resolve
 from pydantic import BaseModel, Field
 
+from robocog.server.ownership import Driver
 from robocog.server.tools.base import Tool
 
 ALLOW_ONCE = "allow once"
@@ -45,13 +46,11 @@ NO_ELICITATION = (
 
 
 class ConsentGate:
-    """Asks the user before `tool` runs, and remembers the drivers that allowed actions for the rest
-    of their session. `driver_of(ctx)` names the caller: a key, and the connection whose end forgets
-    an "allow for this session" (None: the driver has no session, the answer lasts while the server runs).
-    """
+    """Asks the user before `tool` runs, and remembers the drivers (`ownership.Driver`) that allowed
+    actions for the rest of their session: until their connection closes, or, for a driver without
+    one, while the server runs."""
 
-    def __init__(self, driver_of: Callable[[Context[Any]], tuple[Hashable, Any]]) -> None:
-        self.driver_of = driver_of
+    def __init__(self) -> None:
         self._allowed: set[Hashable] = set()
 
     def parameter(self, tool: Tool[Any]) -> inspect.Parameter:
@@ -59,8 +58,7 @@ class ConsentGate:
         gate = self
 
         async def ask(ctx: Context[Any], **arguments: Any) -> Elicit[Decision] | Decision:
-            key, _ = gate.driver_of(ctx)
-            if key in gate._allowed:
+            if Driver.of(ctx.request_context).key in gate._allowed:
                 return Decision(decision=ALLOW_SESSION)
             capabilities = ctx.client_capabilities
             if capabilities is None or capabilities.elicitation is None:
@@ -83,8 +81,8 @@ class ConsentGate:
         if not isinstance(answer, AcceptedElicitation) or answer.data.decision == DENY:
             raise ToolError(f"The user did not allow {tool.name}: the robot did not move. Ask the user why.")
         if answer.data.decision == ALLOW_SESSION:
-            key, connection = self.driver_of(ctx)
-            if key not in self._allowed:
-                self._allowed.add(key)
-                if connection is not None:  # the session ends: ask again next time
-                    connection.exit_stack.callback(self._allowed.discard, key)
+            driver = Driver.of(ctx.request_context)
+            if driver.key not in self._allowed:
+                self._allowed.add(driver.key)
+                if driver.connection is not None:  # the session ends: ask again next time
+                    driver.connection.exit_stack.callback(self._allowed.discard, driver.key)

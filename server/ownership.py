@@ -28,10 +28,8 @@ from mcp.server.context import ServerRequestContext
 from mcp_types.version import MODERN_PROTOCOL_VERSIONS
 
 from robocog.server.clients import connection_of
+from robocog.server.config import DEFAULT_SESSION_IDLE_S
 from robocog.shared.protocol import DRIVER_META_KEY
-
-#: How long a driver without a session keeps the robot after its last call, by default.
-DEFAULT_LEASE_IDLE_S = 600.0
 
 
 class RobotBusy(Exception):
@@ -65,7 +63,7 @@ class Driver:
 class RobotLease:
     """Who holds the robot. Not thread-safe: the app calls it from its event loop only."""
 
-    def __init__(self, *, idle_s: float = DEFAULT_LEASE_IDLE_S, clock: Callable[[], float] = time.monotonic) -> None:
+    def __init__(self, *, idle_s: float = DEFAULT_SESSION_IDLE_S, clock: Callable[[], float] = time.monotonic) -> None:
         self.idle_s = idle_s
         self._clock = clock
         self._holder: Driver | None = None

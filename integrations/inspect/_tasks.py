@@ -16,6 +16,7 @@ transcript) into the score, so `inspect score` can rescore a log without a serve
 
 from __future__ import annotations
 
+import functools
 import importlib.util
 import json
 import os
@@ -86,6 +87,7 @@ def offline_tokenizer() -> None:
 offline_tokenizer()
 
 
+@functools.cache
 def task_specs() -> dict[str, TaskSpec]:
     """The tasks the server can check, from the package's assets."""
     with resources.as_file(resources.files("robocog.assets") / "tasks") as directory:

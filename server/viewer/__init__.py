@@ -33,6 +33,7 @@ from starlette.routing import Mount, Route
 from starlette.staticfiles import StaticFiles
 
 from robocog.server.events import EventBus
+from robocog.server.http import LOOPBACK_NAMES
 
 if TYPE_CHECKING:
     from robocog.server.app import AppState
@@ -43,14 +44,13 @@ logger = logging.getLogger("robocog.server.viewer")
 #: `robocog-server --view` without a port.
 DEFAULT_PORT = 8766
 HOST = "127.0.0.1"
-LOOPBACK_HOSTS = ["127.0.0.1", "localhost", "[::1]", "::1"]
+LOOPBACK_HOSTS = [*LOOPBACK_NAMES, "::1"]
 #: The static files (HTML, JS, CSS) of both viewers.
 STATIC = Path(str(files("robocog.server.viewer") / "static"))
 #: Events a page gets with the current state (the rows it starts with).
 RECENT = 100
 #: Seconds between keep-alive comments on an idle event stream (a closed page is noticed then).
 HEARTBEAT_S = 10.0
-CAMERA_SIZE = (320, 240)
 
 
 def scene_json(session: RobotSession) -> dict[str, Any]:
@@ -236,14 +236,11 @@ class Viewer:
         direction = request.query_params.get("direction", "ahead")
         if direction not in DIRECTIONS:
             return JSONResponse({"error": f"direction: one of {', '.join(DIRECTIONS)}"}, status_code=400)
-        width, height = CAMERA_SIZE
         async with self._camera_lock:
             key = (self.bus.state_seq, direction)
             png = self._camera.get(key)
             if png is None:
-                png = await self.state.run(
-                    lambda s: render_camera(s.world, direction=direction, width=width, height=height)
-                )
+                png = await self.state.run(lambda s: render_camera(s.world, direction=direction))
                 self._camera = {k: v for k, v in self._camera.items() if k[0] == key[0]} | {key: png}
         return Response(png, media_type="image/png", headers={"Cache-Control": "no-store"})
 
