@@ -1,4 +1,5 @@
-"""What several test modules share: the tool names, the paper's map and tasks, snapshot checking.
+"""What several test modules share: the tool names, the paper's map and tasks, snapshot checking, and
+how to start a real server process (its command line, a free loopback port, a stdio transport).
 
 Test modules import from here, never from one another nor from the code under test, so that the
 expectations stay written down once and independent of the code they check.
@@ -8,6 +9,10 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
+import socket
+import sys
+import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -129,3 +134,28 @@ def check_snapshot(name: str | Path, value: dict[str, Any]) -> None:
     assert json.loads(text) == json.loads(path.read_text(encoding="utf-8")), (
         f"the MCP contract changed; if deliberate, update {path} with ROBOCOG_UPDATE_SNAPSHOTS=1"
     )
+
+
+# --- real server processes ---------------------------------------------------------------------------
+
+
+def server_command() -> list[str]:
+    """The installed console script beside this Python, or the module when run from a bare checkout."""
+    script = shutil.which("robocog-server", path=str(Path(sys.executable).parent))
+    return [script] if script else [sys.executable, "-m", "robocog.server.cli"]
+
+
+def free_port() -> int:
+    """A TCP port free on loopback right now."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def stdio_params(*args: str) -> Any:
+    """A stdio transport to a spawned server, whose stderr (PyBullet's chatter) goes to a log."""
+    from mcp.client.stdio import StdioServerParameters, stdio_client
+
+    command, *rest = server_command()
+    params = StdioServerParameters(command=command, args=[*rest, *args], env={"ANONYMIZED_TELEMETRY": "False"})
+    return stdio_client(params, errlog=tempfile.TemporaryFile("w+"))

@@ -23,7 +23,7 @@ from robocog.server.consent import NO_ELICITATION
 from robocog.server.ownership import RobotBusy, RobotLease
 from robocog.shared.errors import ConfigError
 from robocog.shared.protocol import DRIVER_META_KEY
-from tests.test_server_e2e import free_port, server_command
+from tests.helpers import free_port, server_command
 
 pytestmark = pytest.mark.anyio
 

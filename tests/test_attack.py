@@ -12,7 +12,6 @@ import select
 import signal
 import socket
 import subprocess
-import sys
 import time
 import uuid
 from collections.abc import Iterator
@@ -23,16 +22,12 @@ import anyio
 import pytest
 from mcp import Client
 
+from tests.helpers import free_port, server_command
+
 pytestmark = pytest.mark.anyio
 
 #: Longer than this without an answer, the server is hung.
 ANSWER_TIMEOUT_S = 60.0
-
-
-def server_command() -> list[str]:
-    """The installed console script, or the module when run from a bare checkout."""
-    script = Path(sys.executable).parent / "robocog-server"
-    return [str(script)] if script.exists() else [sys.executable, "-m", "robocog.server.cli"]
 
 
 def server_env() -> dict[str, str]:
@@ -186,12 +181,6 @@ def test_bad_lines_on_stdio_leave_a_server_that_answers_and_a_world_intact(tmp_p
 
 
 # --- many HTTP clients at once -----------------------------------------------------------------------------
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 @pytest.fixture

@@ -22,7 +22,7 @@ from mcp import Client
 from robocog.agent.contract import dump_contract, shipped_contract_path, validate_structured
 from robocog.agent.contract_diff import EXIT_BREAKING, EXIT_OK, EXIT_UNREACHABLE, Change, compare_contracts, report
 from robocog.server.testing import RobocogWorld
-from tests.helpers import CONTRACT_DIR, T1_SEQUENCE, action_args
+from tests.helpers import CONTRACT_DIR, T1_SEQUENCE, action_args, free_port
 
 pytestmark = pytest.mark.anyio
 
@@ -283,12 +283,6 @@ def robocog(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
     command = [script] if script else [sys.executable, "-m", "robocog.agent.cli"]
     env = {**os.environ, "ANONYMIZED_TELEMETRY": "False"}
     return subprocess.run([*command, *args], capture_output=True, text=True, timeout=120, cwd=cwd, env=env)
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 @pytest.fixture

@@ -1,7 +1,6 @@
 """Episodic memory (embedded ChromaDB) and the scratchpad."""
 
 import os
-import socket
 import subprocess
 import sys
 import time
@@ -15,6 +14,7 @@ import pytest
 from robocog.server.memory.episodic import EpisodicMemory, parse_chroma_url, record_id
 from robocog.server.memory.scratchpad import Scratchpad
 from robocog.shared.limits import EPISODE_ID_CHARS
+from tests.helpers import free_port
 
 
 @pytest.fixture
@@ -160,15 +160,9 @@ def test_unreachable_server_is_a_connection_error() -> None:
         EpisodicMemory(url="http://127.0.0.1:1")
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
 def test_shared_server_by_url(tmp_path: Path) -> None:
     """Two clients of one local Chroma server (as two robots would be) share a namespace."""
-    port = _free_port()
+    port = free_port()
     command = [sys.executable, "-c", "from chromadb.cli.cli import app; app()", "run", "--path", str(tmp_path)]
     server = subprocess.Popen(
         [*command, "--host", "127.0.0.1", "--port", str(port)],

@@ -25,7 +25,7 @@ from robocog.agent.evaluation import read_rows, run_eval
 from robocog.shared.errors import ModelServiceError, ServerConnectionError
 from robocog.shared.evaluation import AttemptRow, EvalConfig, ModelSpec
 from robocog.shared.trace import ModelTurn, read_trace
-from tests.test_server_e2e import free_port, stdio_params
+from tests.helpers import free_port, stdio_params
 
 pytestmark = pytest.mark.anyio
 

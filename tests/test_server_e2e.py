@@ -3,36 +3,18 @@
 from __future__ import annotations
 
 import os
-import shutil
 import socket
 import subprocess
-import sys
-import tempfile
 import time
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
 
 import pytest
 from mcp import Client
-from mcp.client.stdio import StdioServerParameters, stdio_client
 
-from tests.helpers import T1, T1_SEQUENCE, T2, T2_SEQUENCE, action_args
+from tests.helpers import T1, T1_SEQUENCE, T2, T2_SEQUENCE, action_args, free_port, server_command, stdio_params
 
 pytestmark = pytest.mark.anyio
-
-
-def server_command() -> list[str]:
-    """The installed console script, or the module when run from a bare checkout."""
-    script = shutil.which("robocog-server", path=str(Path(sys.executable).parent))
-    return [script] if script else [sys.executable, "-m", "robocog.server.cli"]
-
-
-def stdio_params(*args: str) -> Any:
-    """A stdio transport to a spawned server, whose stderr (PyBullet's chatter) goes to a log."""
-    command, *rest = server_command()
-    params = StdioServerParameters(command=command, args=[*rest, *args], env={"ANONYMIZED_TELEMETRY": "False"})
-    return stdio_client(params, errlog=tempfile.TemporaryFile("w+"))
 
 
 async def run_t1_then_t2(client: Client) -> None:
@@ -53,12 +35,6 @@ async def run_t1_then_t2(client: Client) -> None:
 async def test_t1_then_t2_over_stdio(tmp_path: Path) -> None:
     async with Client(stdio_params("--profile", "eval", "--data-dir", str(tmp_path))) as client:
         await run_t1_then_t2(client)
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 @pytest.fixture

@@ -12,7 +12,6 @@ import base64
 import json
 import re
 import shutil
-import sys
 import tempfile
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
@@ -26,6 +25,7 @@ from mcp.client.stdio import StdioServerParameters, stdio_client
 from mcp_types import CallToolResult, ImageContent, TextContent
 
 from robocog.server.events import EventBus
+from tests.helpers import server_command
 
 ROOT = Path(__file__).resolve().parent.parent
 SCREENSHOTS = ROOT / "build" / "screenshots"
@@ -161,15 +161,10 @@ async def test_bus_follow_delivers_live_events_and_snapshots() -> None:
 # --- the live viewer in a browser ------------------------------------------------------------------
 
 
-def _server_command() -> list[str]:
-    script = shutil.which("robocog-server", path=str(Path(sys.executable).parent))
-    return [script] if script else [sys.executable, "-m", "robocog.server.cli"]
-
-
 @asynccontextmanager
 async def live_server(data_dir: Path) -> AsyncIterator[tuple[Client, str]]:
     """A real `robocog-server --view 0` over stdio, and the address its viewer announced."""
-    command, *rest = _server_command()
+    command, *rest = server_command()
     args = [*rest, "--profile", "eval", "--view", "0", "--data-dir", str(data_dir)]
     with tempfile.NamedTemporaryFile("w+", suffix=".log") as log:
         params = StdioServerParameters(command=command, args=args, env={"ANONYMIZED_TELEMETRY": "False"})

@@ -9,7 +9,6 @@ A real `robocog-server --transport http` process on a free loopback port:
 from __future__ import annotations
 
 import os
-import socket
 import statistics
 import subprocess
 import sys
@@ -23,6 +22,9 @@ import httpx2
 from mcp import Client
 from mcp.client.streamable_http import streamable_http_client
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository, for tests.helpers
+from tests.helpers import free_port, server_command
+
 CALLS = 300
 MAX_SESSIONS = 64
 REFUSED = 2000
@@ -35,16 +37,9 @@ INITIALIZE = {
 }
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
 def _start(data: str, *extra: str) -> tuple[subprocess.Popen[bytes], str]:
-    script = Path(sys.executable).parent / "robocog-server"
-    command = [str(script)] if script.exists() else [sys.executable, "-m", "robocog.server.cli"]
-    port = _free_port()
+    command = server_command()
+    port = free_port()
     proc = subprocess.Popen(
         [*command, "--transport", "http", "--port", str(port), "--data-dir", data, *extra],
         stdout=subprocess.DEVNULL,

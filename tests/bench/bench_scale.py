@@ -21,7 +21,6 @@ import json
 import os
 import shutil
 import signal
-import socket
 import subprocess
 import sys
 import tempfile
@@ -34,6 +33,9 @@ from robocog.agent import evaluation
 from robocog.agent.evaluation import Progress, read_rows, run_eval
 from robocog.shared.evaluation import EvalConfig
 from robocog.shared.trace import ModelTurn, read_trace
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository, for tests.helpers
+from tests.helpers import free_port
 
 BIN = Path(sys.executable).parent
 LATENCY_S = 1.0
@@ -125,22 +127,16 @@ def throughput(workers: int) -> dict[str, float]:
     }
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
 @contextlib.contextmanager
 def ray_cluster() -> Iterator[str]:
     """`ray start --head --block` on loopback with its own ports and directory; stopped with its group."""
     temp = Path(tempfile.mkdtemp(prefix="rc-ray-"))
-    port = _free_port()
+    port = free_port()
     command = [
         *(str(BIN / "ray"), "start", "--head", "--block", "--node-ip-address", "127.0.0.1", "--port", str(port)),
         *("--num-cpus", "2", "--include-dashboard=false", "--disable-usage-stats", "--temp-dir", str(temp)),
-        *("--ray-client-server-port", str(_free_port()), "--dashboard-port", str(_free_port())),
-        *("--dashboard-agent-listen-port", str(_free_port())),
+        *("--ray-client-server-port", str(free_port()), "--dashboard-port", str(free_port())),
+        *("--dashboard-agent-listen-port", str(free_port())),
     ]
     log = temp / "ray-start.log"
     env = {**os.environ, "RAY_USAGE_STATS_ENABLED": "0"}

@@ -26,14 +26,12 @@ import anyio
 from mcp import Client
 from mcp.client.stdio import StdioServerParameters, stdio_client
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository, for tests.helpers
+from tests.helpers import server_command
+
 CALLS = 50
 MOVES = 6
 MANY = 1000
-
-
-def _server_command() -> list[str]:
-    script = shutil.which("robocog-server", path=str(Path(sys.executable).parent))
-    return [script] if script else [sys.executable, "-m", "robocog.server.cli"]
 
 
 def _pct(values: list[float], q: float) -> float:
@@ -52,7 +50,7 @@ async def _heap(page: Any, cdp: Any) -> dict[str, float]:
 async def _measure(executable: str) -> dict[str, Any]:
     from playwright.async_api import async_playwright
 
-    command, *rest = _server_command()
+    command, *rest = server_command()
     with tempfile.TemporaryDirectory() as tmp, tempfile.NamedTemporaryFile("w+", suffix=".log") as log:
         args = [*rest, "--profile", "eval", "--view", "0", "--data-dir", str(Path(tmp) / "memory")]
         params = StdioServerParameters(command=command, args=args, env={"ANONYMIZED_TELEMETRY": "False"})

@@ -42,6 +42,7 @@ if str(ROOT) not in sys.path:
 
 from robocog.server.world.cstdio import stdout_to_stderr  # noqa: E402
 from robocog.shared.results import WorldState  # noqa: E402
+from tests.helpers import free_port, server_command  # noqa: E402
 from tests.test_fuzz import MADE_UP_TOOLS, NUMBERS, ODD_TEXTS, PIECES, broken_invariants, repeat  # noqa: E402
 
 #: Lengths of long texts, and how often each is drawn (10 MB: about once in 600 calls).
@@ -72,11 +73,6 @@ RAW_LINES = (
     b'{"jsonrpc": "2.0", "id": 12, "method": "tools/call", "params": {"name": "grab", "arguments": {"object": NaN}}}',
     b"\x00\x01\x02\xff",
 )
-
-
-def server_command() -> list[str]:
-    script = Path(sys.executable).parent / "robocog-server"
-    return [str(script)] if script.exists() else [sys.executable, "-m", "robocog.server.cli"]
 
 
 def server_env() -> dict[str, str]:
@@ -477,12 +473,6 @@ def summarise(figures: Figures, log: Path) -> dict[str, Any]:
 
 
 # --- HTTP: many clients at once ----------------------------------------------------------------------------
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 def start_http_server(work: Path) -> tuple[subprocess.Popen[bytes], str]:
