@@ -36,8 +36,11 @@ demo: $(STAMP) ## The scripted planner does T1 then T2 through MCP; prints the t
 world-demo: $(STAMP) ## T1 then T2 as fixed action sequences on the world itself (no MCP, no model)
 	$(BIN)/python -m robocog.server.world.demo
 
+# The suite runs on TEST_WORKERS processes (pytest-xdist), each taking whole modules, so a module's
+# shared server or Ray cluster starts once; `make test TEST_WORKERS=0` runs it in one process.
+TEST_WORKERS ?= 2
 test: $(STAMP) chromium ## Run the test suite (offline; no API key needed)
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) --dist loadfile
 
 # The viewers' browser tests drive the system's Chromium (Playwright cannot download its own here):
 # installed when missing and we are root, else how to install it is printed (those tests then skip).

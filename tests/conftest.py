@@ -33,6 +33,17 @@ def _guarded_connect(self: socket.socket, address: object) -> None:
     _real_connect(self, address)  # type: ignore[arg-type]
 
 
+#: The modules that take longest, run first: `make test` spreads whole modules over workers
+#: (`pytest -n 2 --dist loadfile`, which hands them out in collection order), so a long module left
+#: for the end would keep one worker busy while the other idles. The rest keep their order.
+SLOW_FIRST = ("test_scale.py", "test_evaluation.py", "test_agent.py", "test_models.py")
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    rank = {name: i for i, name in enumerate(SLOW_FIRST)}
+    items.sort(key=lambda item: rank.get(item.path.name, len(SLOW_FIRST)))  # stable: ties keep their order
+
+
 @pytest.fixture
 def anyio_backend() -> str:
     """Async tests (marked `anyio`) run on asyncio, fixtures and test in one task."""
