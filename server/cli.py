@@ -116,7 +116,12 @@ def build_parser() -> argparse.ArgumentParser:
         default="default",
         help="'eval' adds reset_world, begin_task, check_task and clear_memory for evaluation harnesses",
     )
-    w.add_argument("--scene", type=Path, default=None, help="scene YAML (default: the paper's household)")
+    w.add_argument(
+        "--scene",
+        type=Path,
+        default=None,
+        help="a scene YAML, or a shipped scene's name: household (the paper's, the default), suite_house, flat",
+    )
     w.add_argument("--seed", type=int, default=None, help="seed of the world's random generator")
     w.add_argument("--randomize", action="store_true", help="start objects on seeded random free positions")
     w.add_argument("--gui", action="store_true", help="open the PyBullet GUI (needs a display)")
@@ -216,12 +221,13 @@ def main(argv: Sequence[str] | None = None) -> int:
             return 2
     from robocog.server.memory.names import collection_name, parse_chroma_url
     from robocog.shared.errors import WorldError
-    from robocog.shared.scene import load_scene
+    from robocog.shared.scene import load_scene, scene_path
 
     # Fail fast, with the reason on one line, before any client connects (and before PyBullet
     # announces itself on stderr): the scene and every file it names, the memory's address.
     try:
         if args.scene is not None:
+            args.scene = scene_path(args.scene)  # a shipped scene's name, or a path
             load_scene(args.scene)
         if args.memory_url is not None:
             parse_chroma_url(args.memory_url)

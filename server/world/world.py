@@ -22,7 +22,7 @@ from robocog.server.world.builder import connect
 from robocog.server.world.navigation import SemanticMap
 from robocog.server.world.sim import Sim
 from robocog.shared.results import ObjectPlacement, WorldState
-from robocog.shared.scene import Scene, SceneObject, load_robot, load_scene
+from robocog.shared.scene import Scene, SceneObject, load_robot, load_scene, scene_path
 
 DEFAULT_SCENE = ASSETS_DIR / "scenes" / "household.yaml"
 
@@ -41,7 +41,7 @@ class World:
         gui: bool = False,
     ) -> None:
         if scene is None or isinstance(scene, str | Path):
-            scene = load_scene(Path(scene) if scene is not None else DEFAULT_SCENE)
+            scene = load_scene(scene_path(scene) if scene is not None else DEFAULT_SCENE)  # a name or a path
         self.scene = scene
         self.robot_spec = load_robot(scene.robot_file())
         episode.check_options(options)
