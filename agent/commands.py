@@ -6,7 +6,6 @@ import argparse
 import asyncio
 import sys
 from collections.abc import Sequence
-from pathlib import Path
 
 
 def flag_values(argv: Sequence[str], flag: str) -> list[str]:
@@ -20,20 +19,44 @@ def flag_values(argv: Sequence[str], flag: str) -> list[str]:
     return values
 
 
+def check_chroma_reachable(url: str, where: str) -> None:
+    """A ConfigError unless something listens at the Chroma server's address `url` (checked before
+    any server is spawned: each would otherwise fail on its first memory call)."""
+    import socket
+
+    from robocog.server.memory.names import parse_chroma_url
+    from robocog.shared.errors import ConfigError
+
+    try:
+        host, port, _ = parse_chroma_url(url)
+    except ValueError as exc:
+        raise ConfigError(f"{where}: --memory-url: {exc}") from None
+    try:
+        socket.create_connection((host, port), timeout=3).close()
+    except OSError as exc:
+        raise ConfigError(
+            f"{where}: --memory-url {url}: no Chroma server answers there ({exc.strerror or exc}); start one "
+            f"(chroma run --port {port}) or drop --memory-url for embedded memory"
+        ) from None
+
+
 def check_server_args(argv: Sequence[str], *, data_dir: bool, where: str) -> None:
     """Check the robocog-server arguments of a server the client will spawn, before spawning it:
-    its `--scene` (and the files that scene names), and no `--memory-url` where a `--data-dir` is
-    also given. `where` names the arguments' origin in the error ("--server-cmd", "study.yaml: server_args")."""
+    its `--scene` (and the files that scene names), no `--memory-url` where a `--data-dir` is also
+    given, and a Chroma server listening at `--memory-url`. `where` names the arguments' origin in
+    the error ("--server-cmd", "study.yaml: server_args")."""
     from robocog.shared.errors import ConfigError
-    from robocog.shared.scene import load_scene
+    from robocog.shared.scene import load_scene, scene_path
 
     for scene in flag_values(argv, "--scene"):
-        load_scene(Path(scene))
+        load_scene(scene_path(scene))  # a shipped scene's name, or a path
     if data_dir and flag_values(argv, "--memory-url"):
         raise ConfigError(
             f"{where}: --memory-url cannot be used together with --data-dir: the server either keeps "
             "embedded memory in a directory or uses a Chroma server; give one"
         )
+    for url in flag_values(argv, "--memory-url"):
+        check_chroma_reachable(url, where)
 
 
 def eval_command(args: argparse.Namespace) -> int:
@@ -62,6 +85,8 @@ def eval_command(args: argparse.Namespace) -> int:
         "memory_iterations": args.memory_iterations,
         "protocol": args.protocol,
         "workers": args.workers,
+        "isolation": args.isolation,
+        "fleet_processes": args.fleet_processes,
     }
     updates = {k: v for k, v in overrides.items() if v is not None}
     try:  # validated exactly as the same values in the file would be
@@ -75,8 +100,8 @@ def eval_command(args: argparse.Namespace) -> int:
         command = shlex.split(args.server_cmd or "")
         origins = ((config.server_args, f"{args.config}: server_args"), (command, "--server-cmd"))
         for argv, where in origins:
-            # The harness gives each worker's server its own --data-dir.
-            check_server_args(argv, data_dir=True, where=where)
+            # The harness gives each server its own --data-dir (unless --memory-url names a Chroma server).
+            check_server_args(argv, data_dir=False, where=where)
             if flag_values(argv, "--data-dir"):
                 raise ConfigError(f"{where}: --data-dir is set per worker by the harness; drop it")
     except ValueError as exc:  # ConfigError, or shlex's unbalanced quotes
@@ -138,6 +163,7 @@ def eval_command(args: argparse.Namespace) -> int:
                     on_progress=show,
                     on_error=warn,
                     ray_address=ray_address,
+                    urls=[u.strip() for u in (args.url or "").split(",") if u.strip()],
                 )
             )
         except (ConfigError, ModelServiceError, ServerConnectionError) as exc:

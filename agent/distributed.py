@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING, Any
 from robocog.agent.connection import connect, leaf_message
 from robocog.agent.evaluation import Progress, Runner
 from robocog.agent.model import warm_up_litellm
+from robocog.agent.trace import images_dir
 from robocog.shared.errors import ConfigError, ServerConnectionError
 from robocog.shared.evaluation import AttemptRow, EvalConfig, ModelSpec
 
@@ -40,8 +41,9 @@ if TYPE_CHECKING:
 NEEDS_RAY = "--ray needs Ray: pip install 'robocog[ray]'"
 
 Unit = tuple[ModelSpec, int, int]  # a model, a trial, the memory iteration to start from
-#: What an actor streams back: ("row", row JSON, trace text or None), ("skip", n), ("done", resume
-#: iteration or None), or ("error", message) when its server could not be reached.
+#: What an actor streams back: ("row", row JSON, trace text or None, {picture file name: bytes}),
+#: ("skip", n), ("done", resume iteration or None), or ("error", message) when its server could not
+#: be reached.
 Event = tuple[Any, ...]
 
 
@@ -84,14 +86,18 @@ class RemoteRunner(Runner):
         super().__init__(config, out, server_command, progress=self.forward)
 
     async def write(self, row: AttemptRow) -> None:
-        trace = None
+        trace, images = None, {}
         if row.trace is not None:
             path = self.out.parent / row.trace
             if path.exists():
                 trace = path.read_text(encoding="utf-8")
                 path.unlink()
+            folder = images_dir(path)  # the pictures the trace refers to (look's), sent along
+            if folder.is_dir():
+                images = {f.name: f.read_bytes() for f in sorted(folder.iterdir()) if f.is_file()}
+                shutil.rmtree(folder, ignore_errors=True)
         assert self.forward.events is not None
-        self.forward.events.put_nowait(("row", row.model_dump_json(), trace))
+        self.forward.events.put_nowait(("row", row.model_dump_json(), trace, images))
 
 
 class UnitActor:
@@ -230,6 +236,20 @@ async def _drive(ray: Any, actor_class: Any, runner: Runner, queue: asyncio.Queu
         ray.kill(actor)  # frees its CPU for an actor still waiting for one
 
 
+async def store_row(runner: Runner, row: AttemptRow, trace: str | None, images: dict[str, bytes]) -> None:
+    """Write a row an actor sent, with its trace and the trace's pictures, where a local run puts them."""
+    if row.trace is not None and trace is not None:
+        path = runner.out.parent / row.trace
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(trace, encoding="utf-8")
+        if images:
+            folder = images_dir(path)
+            folder.mkdir(exist_ok=True)
+            for name, data in images.items():
+                (folder / Path(name).name).write_bytes(data)  # a bare file name, never a path
+    await runner.write(row)
+
+
 async def _run_remote(
     ray: Any, actor: Any, runner: Runner, spec: ModelSpec, trial: int, start: int, index: int
 ) -> int | None:
@@ -239,12 +259,7 @@ async def _run_remote(
             event = await ref
             kind = event[0]
             if kind == "row":
-                row = AttemptRow.model_validate_json(event[1])
-                if row.trace is not None and event[2] is not None:
-                    path = runner.out.parent / row.trace
-                    path.parent.mkdir(parents=True, exist_ok=True)
-                    path.write_text(event[2], encoding="utf-8")
-                await runner.write(row)
+                await store_row(runner, AttemptRow.model_validate_json(event[1]), event[2], event[3])
             elif kind == "skip":
                 runner.progress.advance(int(event[1]))
             elif kind == "done":

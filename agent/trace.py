@@ -24,6 +24,11 @@ from robocog.shared.trace import (
 )
 
 
+def images_dir(trace_path: Path) -> Path:
+    """Where the pictures of the trace file `trace_path` are kept: `DIR/run.images/` beside `DIR/run.jsonl`."""
+    return trace_path.with_name(trace_path.stem + ".images")
+
+
 class Trace:
     """Collects a run's events; optionally appends them to a JSONL file and prints them live."""
 
@@ -48,7 +53,7 @@ class Trace:
         if self.path is None:
             reference = f"memory/{len(self.images) + 1:04d}-{tool}{suffix}"
         else:
-            folder = self.path.with_name(self.path.stem + ".images")
+            folder = images_dir(self.path)
             folder.mkdir(parents=True, exist_ok=True)
             number = sum(1 for _ in folder.iterdir()) + 1
             target = folder / f"{number:04d}-{tool}{suffix}"

@@ -1,12 +1,13 @@
 """The MCP surface: the robot's tools, its resources and prompts, on mcp 2.x's `MCPServer`.
 
-This module only wires: what each tool does lives in its module under `robocog.server.tools`,
-and every tool is registered the same way from the lists there. One server is one robot:
-calls are serialised (a lock, and the work runs on a worker thread) so the PyBullet client has
-one driver at a time, and an action runs to its end even when the call is cancelled, so the world
-is always left consistent. One client at a time may change anything (the lease, `ownership.py`);
-with `--confirm-actions` the user allows each action first (`consent.py`). HTTP's own limits (the
-bearer token, Host/Origin, sessions) are in `http.py`.
+This module only wires: what each tool does lives in its module under `robocog.server.tools`, and
+every tool is registered the same way from the lists there. A server is one robot, or a fleet of
+them with one per driver (`fleet.py`). Calls on a robot are serialised (its lock, and the work runs
+on a worker thread) so its PyBullet client has one driver at a time, and an action runs to its end
+even when the call is cancelled, so the world is always left consistent. One client at a time may
+change anything on a robot (the lease, `ownership.py`); with `--confirm-actions` the user allows
+each action first (`consent.py`). HTTP's own limits (the bearer token, Host/Origin, sessions) are
+in `http.py`.
 """
 
 from __future__ import annotations
@@ -16,8 +17,9 @@ import inspect
 import json
 import logging
 import time
-from collections.abc import AsyncIterator, Callable
+from collections.abc import AsyncIterator, Callable, Iterable
 from contextlib import asynccontextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Annotated, Any, Literal, TypeVar
 
@@ -25,6 +27,7 @@ import anyio
 import anyio.from_thread
 import anyio.to_thread
 from mcp.server.context import ServerRequestContext
+from mcp.server.lowlevel.helper_types import ReadResourceContents
 from mcp.server.mcpserver import Context, MCPServer
 from mcp.server.mcpserver.exceptions import ToolError
 from mcp_types import (
@@ -43,7 +46,8 @@ from robocog.server.clients import WORLD_RESOURCES, Clients, LogEntry, collectin
 from robocog.server.config import AccessConfig, SessionConfig
 from robocog.server.consent import ConsentGate
 from robocog.server.events import EventBus
-from robocog.server.ownership import Driver, RobotBusy, RobotLease
+from robocog.server.fleet import Fleet, Robot
+from robocog.server.ownership import Driver, RobotBusy
 from robocog.server.resources import Current, register_completions, register_prompts, register_resources
 from robocog.server.tools import CONTROL_TOOLS, ROBOT_TOOLS
 from robocog.server.tools.base import Caller, ProgressFn, Tool
@@ -67,41 +71,53 @@ INSTRUCTIONS = (
 )
 
 
+#: The request a resource read or a completion is answering: the SDK gives static resources no
+#: Context, and a fleet needs the caller to know whose robot to read (set by `RobocogServer`).
+_REQUEST: ContextVar[ServerRequestContext[Any, Any] | None] = ContextVar("robocog_request", default=None)
+
+
 @dataclass
 class AppState:
-    """What the lifespan owns: the robot session (built in the background) and the lock that
-    serialises access to it."""
+    """What the lifespan owns: the robots (built in the background: one, or a fleet's first) and
+    who is connected."""
 
-    lock: anyio.Lock = field(default_factory=anyio.Lock)
+    fleet: Fleet
     ready: anyio.Event = field(default_factory=anyio.Event)
     clients: Clients = field(default_factory=Clients)
-    _session: RobotSession | None = None
     failure: str | None = None
     #: The live viewer's events (`robocog-server --view`); None without a viewer.
     events: EventBus | None = None
 
     @property
     def session(self) -> RobotSession:
-        if self._session is None:
+        """The first robot's session (the only one, unless the server is a fleet)."""
+        first = self.fleet.first
+        if first is None:
             raise ToolError(f"the robot is not available: {self.failure or 'still starting'}")
-        return self._session
+        return first.session
 
-    async def wait_ready(self) -> RobotSession:
+    async def robot(self, ctx: ServerRequestContext[Any, Any] | None = None) -> Robot:
+        """The robot of the client making request `ctx` (default: the request being answered; with
+        none, the first robot)."""
         await self.ready.wait()
-        return self.session
+        if self.failure is not None:
+            raise ToolError(f"the robot is not available: {self.failure}")
+        ctx = ctx or _REQUEST.get()
+        return await self.fleet.robot_for(None if ctx is None or self.fleet.shared else Driver.of(ctx))
 
-    async def run(self, fn: Callable[[RobotSession], T]) -> T:
-        """Run `fn(session)` on a worker thread, one call at a time, to completion.
+    async def run(self, fn: Callable[[RobotSession], T], ctx: ServerRequestContext[Any, Any] | None = None) -> T:
+        """Run `fn(session)` on the caller's robot (see `robot`), serialised, to completion.
 
         A `ValueError` (bad input the caller can fix) becomes a tool error with its message.
         """
-        session = await self.wait_ready()
-        async with self.lock:
-            try:
-                # abandon_on_cancel=False: a cancelled call still finishes its action first.
-                return await anyio.to_thread.run_sync(fn, session, abandon_on_cancel=False)
-            except ValueError as exc:
-                raise ToolError(str(exc)) from exc
+        return await self.run_on(await self.robot(ctx), fn)
+
+    async def run_on(self, robot: Robot, fn: Callable[[RobotSession], T]) -> T:
+        """Run `fn(session)` on `robot`, serialised, to completion; a `ValueError` becomes a tool error."""
+        try:
+            return await robot.run(fn, self.fleet.limiter)
+        except ValueError as exc:
+            raise ToolError(str(exc)) from exc
 
 
 def _tool_result(result: BaseModel) -> CallToolResult:
@@ -138,10 +154,9 @@ def _model_label(ctx: Context[AppState]) -> str | None:
 
 @dataclass
 class Access:
-    """Who may act: the lease (one driver at a time), and the consent gate when actions need the
-    user's permission (`--confirm-actions`)."""
+    """Who may act: the consent gate when actions need the user's permission (`--confirm-actions`).
+    Whether the caller may act on its robot at all is the robot's lease (one driver at a time)."""
 
-    lease: RobotLease = field(default_factory=RobotLease)
     gate: ConsentGate | None = None
 
     def asks_consent(self, tool: Tool[Any]) -> bool:
@@ -170,20 +185,23 @@ def register_tool(mcp: MCPServer[AppState], tool: Tool[Any], access: Access) -> 
         state = ctx.request_context.lifespan_context
         if gate is not None:
             gate.check(ctx, tool, arguments.pop("consent"))
+        robot = await state.robot(ctx.request_context)
         if exclusive:
             try:
-                access.lease.claim(Driver.of(ctx.request_context))
+                robot.lease.claim(Driver.of(ctx.request_context))
             except RobotBusy as exc:
                 raise ToolError(str(exc)) from None
         caller = Caller(progress=_progress(ctx), model=_model_label(ctx))
         records: list[LogEntry] = []
         try:
             with collecting(records.append):
-                result = await state.run(lambda session: session.invoke(tool, arguments, caller))
+                result = await state.run_on(robot, lambda session: session.invoke(tool, arguments, caller))
         finally:
             await state.clients.send(ctx.request_context, records)
         if tool.changes_world and getattr(result, "status", None) != "failure":
-            await state.clients.world_changed()
+            # A fleet's robots are private: only their own driver hears that the world changed.
+            watchers = None if state.fleet.shared or robot.driver is None else robot.driver.connection
+            await state.clients.world_changed(only=watchers)
             for uri in WORLD_RESOURCES:  # clients on 2026-07-28 and later listen on subscriptions/listen
                 await ctx.notify_resource_updated(uri)
         return _tool_result(result)
@@ -216,6 +234,16 @@ class RobocogServer(MCPServer[AppState]):
             if not isinstance(exc.__cause__, ValidationError):
                 raise
             raise ToolError(invalid_arguments(name, exc.__cause__)) from exc.__cause__
+
+    async def read_resource(
+        self, uri: Any, context: Context[AppState, Any] | None = None
+    ) -> Iterable[ReadResourceContents] | InputRequiredResult:
+        """Resources read the caller's robot: the request is remembered for them (see `_REQUEST`)."""
+        token = _REQUEST.set(None if context is None else context.request_context)
+        try:
+            return await super().read_resource(uri, context)
+        finally:
+            _REQUEST.reset(token)
 
 
 def invalid_arguments(tool: str, error: ValidationError) -> str:
@@ -271,12 +299,20 @@ def build_server(
     log_level: Literal["DEBUG", "INFO", "WARNING", "ERROR"] = "WARNING",
     access: AccessConfig | None = None,
     view: int | None = None,
+    robots: int = 1,
+    per_driver: bool | None = None,
 ) -> MCPServer[AppState]:
     """The robocog MCP server for `config`; the `eval` profile adds the harness controls; `access`
     sets the bearer token, the consent gate, the published tools and the lease; `view`, a port,
-    serves the live viewer there (127.0.0.1; 0 picks a free port) from this process."""
+    serves the live viewer there (127.0.0.1; 0 picks a free port) from this process; `robots` > 1
+    makes it a fleet: each driver (an HTTP session, a connection) gets a robot of its own (as with
+    `per_driver`, for one robot too: a fleet's process behind a router)."""
     config = config or SessionConfig()
     access = access or AccessConfig()
+    if robots < 1:
+        raise ConfigError(f"--robots: a server has at least one robot, not {robots}")
+    if robots > 1 and view is not None:
+        raise ConfigError("--view watches one robot: it cannot be combined with a fleet (--robots above 1)")
     if access.allow_tools is not None:
         unknown = access.allow_tools - {t.name for t in ROBOT_TOOLS}
         if unknown:
@@ -286,26 +322,26 @@ def build_server(
 
     @asynccontextmanager
     async def lifespan(_: MCPServer[AppState]) -> AsyncIterator[AppState]:
-        state = current.state = AppState()
+        fleet = Fleet(config, capacity=robots, per_driver=per_driver, idle_s=access.lease_idle_s)
+        state = current.state = AppState(fleet)
 
         async def build() -> None:
             # In the background: the server answers initialize and tools/list meanwhile. Its log
             # records are kept for the clients that set a log level, now or later.
             with collecting(state.clients.keep):
                 try:
-                    from robocog.server.session import RobotSession
-
                     started = time.monotonic()
-                    session = await anyio.to_thread.run_sync(RobotSession, config)
-                    await anyio.to_thread.run_sync(session.warm_up)
-                    state._session = session
+                    robot = await anyio.to_thread.run_sync(fleet.build)
+                    await anyio.to_thread.run_sync(robot.session.warm_up)
+                    world = robot.session.world
                     logger.info(
-                        "robot ready in %.1f s: scene %r, %d objects, %d locations, profile %s",
+                        "robot ready in %.1f s: scene %r, %d objects, %d locations, profile %s%s",
                         time.monotonic() - started,
-                        session.world.scene.name,
-                        len(session.world.object_names),
-                        len(session.world.map.points),
+                        world.scene.name,
+                        len(world.object_names),
+                        len(world.map.points),
                         profile,
+                        "" if fleet.shared else f", a fleet of up to {robots} robots",
                     )
                 except Exception as exc:  # reported to every caller, the server keeps running
                     logger.exception("the robot session could not be built")
@@ -331,8 +367,7 @@ def build_server(
                     viewer.stop()
                 await state.ready.wait()
                 current.state = None
-                if state._session is not None:
-                    await anyio.to_thread.run_sync(state._session.close)
+                await anyio.to_thread.run_sync(fleet.close)
 
     mcp: MCPServer[AppState] = RobocogServer(
         "robocog",
@@ -344,10 +379,7 @@ def build_server(
         **_auth(access),
     )
     install_log_handlers(log_level)
-    guard = Access(
-        lease=RobotLease(idle_s=access.lease_idle_s),
-        gate=ConsentGate() if access.confirm_actions else None,
-    )
+    guard = Access(gate=ConsentGate() if access.confirm_actions else None)
     published = [t for t in ROBOT_TOOLS if access.allow_tools is None or t.name in access.allow_tools]
     for tool in published + list(CONTROL_TOOLS if profile == "eval" else ()):
         register_tool(mcp, tool, guard)

@@ -8,23 +8,27 @@ import os
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from robocog.server.config import DEFAULT_MAX_SESSIONS, DEFAULT_SESSION_IDLE_S
+
+if TYPE_CHECKING:
+    from robocog.server.http import HttpOptions
 
 DESCRIPTION = """\
 A simulated household robot (PyBullet) behind the Model Context Protocol.
 
-One server is one robot: a mobile manipulator in a kitchen, hallway and living room, with an
-episodic memory (ChromaDB, embedded by default) and a scratchpad. Tools: look_around, move_to,
-grab, place, add_to_scratchpad, view_scratchpad, end_task, search_memory; with --profile eval
-also the harness controls reset_world (with search_k, memory_labels), begin_task (an episode per
-task, optionally keeping the scratchpad), check_task and clear_memory. Resources:
-robocog://world/state, robocog://world/map, robocog://world/description (the world in words, as
-the paper's task message gives it), robocog://world/image, robocog://tasks; templates
-robocog://objects/{name} and robocog://locations/{name}. Prompts: robot_system,
-robot_system_paper (the paper's protocol), T1, T2, bring(object, location). Names complete from
-the scene (completion/complete); clients may set a log level (logging/setLevel) and subscribe to
-the world's resources (resources/subscribe).
+One server is one robot (or, with --robots N over HTTP, a fleet: a robot per session): a mobile
+manipulator in a kitchen, hallway and living room, with an episodic memory (ChromaDB, embedded by
+default) and a scratchpad. Tools: look_around, move_to, grab, place, add_to_scratchpad,
+view_scratchpad, end_task, search_memory; with --profile eval also the harness controls reset_world
+(with search_k, memory_labels, memory_namespace), begin_task (an episode per task, optionally
+keeping the scratchpad), check_task and clear_memory. Resources: robocog://world/state,
+robocog://world/map, robocog://world/description (the world in words, as the paper's task message
+gives it), robocog://world/image, robocog://tasks; templates robocog://objects/{name} and
+robocog://locations/{name}. Prompts: robot_system, robot_system_paper (the paper's protocol), T1,
+T2, bring(object, location). Names complete from the scene (completion/complete); clients may set a
+log level (logging/setLevel) and subscribe to the world's resources (resources/subscribe).
 """
 
 EPILOG = """\
@@ -32,6 +36,7 @@ examples:
   robocog-server                                  # stdio, for Claude Desktop, Cursor, the MCP Inspector
   robocog-server --transport http --port 8765     # streamable HTTP on http://127.0.0.1:8765/mcp
   robocog-server --view                           # stdio, and the live viewer on http://127.0.0.1:8766/
+  robocog-server --transport http --robots 32 --profile eval   # a fleet: a robot per HTTP session
   robocog-server --profile eval --data-dir /tmp/mem --memory-namespace trial-3
   robocog-server --memory-url http://127.0.0.1:8000   # share one Chroma server between robots
 
@@ -88,8 +93,9 @@ def build_parser() -> argparse.ArgumentParser:
     a.add_argument(
         "--max-sessions",
         type=_positive(int),
-        default=DEFAULT_MAX_SESSIONS,
-        help=f"HTTP sessions open at once; past it a new one gets 503 (default: {DEFAULT_MAX_SESSIONS})",
+        default=None,
+        help=f"HTTP sessions open at once; past it a new one gets 503 (default: {DEFAULT_MAX_SESSIONS}, or --robots "
+        "plus 4 for a larger fleet)",
     )
     a.add_argument(
         "--session-idle-s",
@@ -125,6 +131,23 @@ def build_parser() -> argparse.ArgumentParser:
     w.add_argument("--seed", type=int, default=None, help="seed of the world's random generator")
     w.add_argument("--randomize", action="store_true", help="start objects on seeded random free positions")
     w.add_argument("--gui", action="store_true", help="open the PyBullet GUI (needs a display)")
+    w.add_argument(
+        "--processes",
+        type=_processes,
+        default=1,
+        metavar="P",
+        help="spread the fleet's robots over P processes behind this one address ('auto': one per core), so "
+        "it uses P cores (PyBullet holds the GIL: one process uses about one core); default: 1",
+    )
+    w.add_argument(
+        "--robots",
+        type=_positive(int),
+        default=1,
+        metavar="N",
+        help="a fleet: each HTTP session (each driver) gets a robot of its own (its world, scratchpad, episode "
+        "and memory namespace), up to N at once, sharing one embedding model and one Chroma client; "
+        "default: 1, one robot for every client (needs --transport http when above 1)",
+    )
     m = p.add_argument_group("memory")
     m.add_argument(
         "--data-dir",
@@ -179,6 +202,18 @@ def _tool_list(text: str) -> frozenset[str]:
     return names
 
 
+def _processes(text: str) -> int:
+    if text == "auto":
+        return os.cpu_count() or 1
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of processes (or 'auto')") from None
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"{n} is not a positive number of processes")
+    return n
+
+
 def _search_k(text: str) -> int:
     try:
         k = int(text)
@@ -195,6 +230,29 @@ def main(argv: Sequence[str] | None = None) -> int:
     from robocog.server.http import HttpOptions, generate_token, is_loopback, machine_names, serve
     from robocog.shared.errors import ConfigError
 
+    if args.max_sessions is not None and args.max_sessions < args.robots:
+        print(
+            f"robocog-server: --max-sessions {args.max_sessions} is below --robots {args.robots}: some robots "
+            "could never be driven (a robot is a session's)",
+            file=sys.stderr,
+        )
+        return 2
+    if args.robots > 1 and args.transport != "http":
+        print("robocog-server: --robots above 1 needs --transport http (stdio has one client)", file=sys.stderr)
+        return 2
+    if args.robots > 1 and args.view is not None:
+        print("robocog-server: --view watches one robot: it cannot be combined with --robots above 1", file=sys.stderr)
+        return 2
+    if args.robots > 1 and args.gui:
+        print("robocog-server: --gui shows one robot: it cannot be combined with --robots above 1", file=sys.stderr)
+        return 2
+    if args.processes > args.robots:
+        print(
+            f"robocog-server: --processes {args.processes} is more than --robots {args.robots}: each process "
+            "hosts some of the robots",
+            file=sys.stderr,
+        )
+        return 2
     token = generate_token() if args.auth_token == "generate" else args.auth_token
     http = HttpOptions(
         host=args.host,
@@ -202,7 +260,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         auth_token=token,
         allowed_hosts=tuple(args.allowed_host),
         allowed_origins=tuple(args.allowed_origin),
-        max_sessions=args.max_sessions,
+        max_sessions=int(args.max_sessions or max(DEFAULT_MAX_SESSIONS, args.robots + 4)),
         session_idle_s=args.session_idle_s,
         machine_names=() if args.transport == "stdio" or is_loopback(args.host) else machine_names(),
     )
@@ -245,6 +303,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"robocog-server: {exc}", file=sys.stderr)
         return 2
 
+    if args.processes > 1:  # a router in front of fleet processes: no robot in this process
+        return _route(args, list(argv) if argv is not None else sys.argv[1:], http)
+
     from robocog.server.world.cstdio import stdout_to_stderr
 
     with stdout_to_stderr():
@@ -268,7 +329,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         search_k=args.search_k,
     )
     try:
-        server = build_server(config, profile=args.profile, log_level=args.log_level, access=access, view=args.view)
+        server = build_server(
+            config,
+            profile=args.profile,
+            log_level=args.log_level,
+            access=access,
+            view=args.view,
+            robots=int(args.robots),
+            per_driver=True if os.environ.get("ROBOCOG_FLEET_PROCESS") else None,
+        )
     except ConfigError as exc:
         print(f"robocog-server: {exc}", file=sys.stderr)
         return 2
@@ -276,11 +345,44 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.transport == "stdio":
             server.run("stdio")
         else:
-            print(f"robocog-server: MCP over streamable HTTP at {http.url}", file=sys.stderr)
+            routed = os.environ.get("ROBOCOG_FLEET_PROCESS")  # a process of a fleet behind a router
+            where = f"fleet process {routed} ready" if routed else f"MCP over streamable HTTP at {http.url}"
+            print(f"robocog-server: {where}", file=sys.stderr)
             if args.auth_token == "generate":
                 print(f"robocog-server: bearer token (clients send it as ROBOCOG_AUTH_TOKEN): {token}", file=sys.stderr)
             serve(server, http, log_level=args.log_level)
     except WorldError as exc:
+        print(f"robocog-server: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        pass
+    return 0
+
+
+def _route(args: argparse.Namespace, argv: list[str], http: HttpOptions) -> int:
+    """Serve the fleet's P processes behind the public address (`robocog.server.router`)."""
+    from robocog.server.router import Fleet, serve
+    from robocog.shared.errors import ConfigError
+
+    fleet = Fleet(
+        argv,
+        robots=args.robots,
+        processes=args.processes,
+        allowed_hosts=http.host_names(),
+        auth_token=http.auth_token,
+        data_dir=args.data_dir,
+        memory_url=args.memory_url,
+        session_idle_s=args.session_idle_s,
+    )
+    try:
+        with fleet as router:
+            print(
+                f"robocog-server: MCP over streamable HTTP at {http.url}: {args.robots} robots in "
+                f"{args.processes} processes",
+                file=sys.stderr,
+            )
+            serve(router, args.host, args.port, args.log_level)
+    except ConfigError as exc:
         print(f"robocog-server: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

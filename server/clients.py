@@ -210,10 +210,13 @@ class Clients:
     def unsubscribe(self, ctx: ServerRequestContext[Any, Any], uri: str) -> None:
         self.of(ctx).subscriptions.discard(uri)
 
-    async def world_changed(self) -> None:
+    async def world_changed(self, only: Connection | None = None) -> None:
         """Tell every subscriber of a world resource (state, image, description, one object, one
-        location) that it changed."""
+        location) that it changed; with `only`, the subscribers on that connection (a fleet robot's
+        driver: the other clients watch other worlds)."""
         for client in list(self._clients.values()):
+            if only is not None and client.connection is not only:
+                continue
             for uri in sorted(client.subscriptions):
                 if uri in WORLD_RESOURCES or uri.startswith(WORLD_TEMPLATES):
                     await client.connection.send_resource_updated(uri)

@@ -79,15 +79,19 @@ class HttpOptions:
         if not 0 <= self.port <= 65535:
             raise ConfigError(f"--port: {self.port} is not a TCP port (0-65535)")
 
-    def transport_security(self) -> TransportSecuritySettings:
-        """Host and Origin checks on, whatever the bind address."""
-        from mcp.server.transport_security import TransportSecuritySettings
-
+    def host_names(self) -> list[str]:
+        """The Host values accepted: loopback names, this machine's, the bind address, and `--allowed-host`'s."""
         hosts = [*LOOPBACK_NAMES, *self.machine_names, *self.allowed_hosts]
         if not self.loopback and not is_wildcard(self.host):
             hosts.append(f"[{self.host}]" if ":" in self.host else self.host)
         # A name without a port is allowed with any port, and bare (port 80 behind a proxy).
-        allowed_hosts = sorted({form for h in hosts for form in ((h,) if has_port(h) else (h, f"{h}:*"))})
+        return sorted({form for h in hosts for form in ((h,) if has_port(h) else (h, f"{h}:*"))})
+
+    def transport_security(self) -> TransportSecuritySettings:
+        """Host and Origin checks on, whatever the bind address."""
+        from mcp.server.transport_security import TransportSecuritySettings
+
+        allowed_hosts = self.host_names()
         origins = [f"http://{h}:*" for h in LOOPBACK_NAMES] + [f"https://{h}:*" for h in LOOPBACK_NAMES]
         return TransportSecuritySettings(
             enable_dns_rebinding_protection=True,

@@ -90,7 +90,7 @@ class RobotLease:
                 wait = "it lets go when that client disconnects or its session idles out"
             raise RobotBusy(
                 f"The robot is driven by another session ({holder.label}); {wait}. Read-only tools and "
-                "resources still work meanwhile. To drive several robots at once, run one server per robot."
+                "resources still work meanwhile. For a robot per session, start the server as a fleet (--robots N)."
             )
         self._last = self._clock()
 

@@ -185,7 +185,7 @@ def register_completions(mcp: MCPServer[AppState], current: Current) -> None:
     async def complete(
         ref: PromptReference | ResourceTemplateReference, argument: CompletionArgument, _: CompletionContext | None
     ) -> Completion | None:
-        world = (await current.get().wait_ready()).world
+        world = (await current.get().robot()).session.world
         objects, locations = world.object_names, list(world.map.points)
         graspable = [n for n in objects if world.object_spec(n).graspable]
         choices: dict[tuple[str, str], list[str]] = {

@@ -7,12 +7,17 @@ expectations stay written down once and independent of the code they check.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import shutil
 import socket
+import subprocess
 import sys
 import tempfile
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -159,3 +164,77 @@ def stdio_params(*args: str) -> Any:
     command, *rest = server_command()
     params = StdioServerParameters(command=command, args=[*rest, *args], env={"ANONYMIZED_TELEMETRY": "False"})
     return stdio_client(params, errlog=tempfile.TemporaryFile("w+"))
+
+
+def server_env() -> dict[str, str]:
+    """The environment for a spawned server: without a token a developer may have set, no telemetry."""
+    return {k: v for k, v in os.environ.items() if k != "ROBOCOG_AUTH_TOKEN"} | {"ANONYMIZED_TELEMETRY": "False"}
+
+
+@contextmanager
+def http_server(log: Path, *args: str, timeout_s: float = 60) -> Iterator[str]:
+    """`robocog-server --transport http ARGS` on a free loopback port, its output in `log`; yields
+    its /mcp URL once it listens, and checks at the end that it is still running (then stops it)."""
+    port = free_port()
+    with log.open("wb") as out:
+        proc = subprocess.Popen(
+            [*server_command(), "--transport", "http", "--port", str(port), *args],
+            stdout=out,
+            stderr=subprocess.STDOUT,
+            env=server_env(),
+        )
+        try:
+            deadline = time.monotonic() + timeout_s
+            while True:
+                assert proc.poll() is None, log.read_text(errors="replace")
+                assert time.monotonic() < deadline, f"the HTTP server did not listen within {timeout_s:g} s"
+                with socket.socket() as s:
+                    if s.connect_ex(("127.0.0.1", port)) == 0:
+                        break
+                time.sleep(0.1)
+            yield f"http://127.0.0.1:{port}/mcp"
+            assert proc.poll() is None, log.read_text(errors="replace")
+        finally:
+            proc.terminate()
+            proc.wait(timeout=30)
+
+
+#: The environment of a local Ray cluster: nothing phones home.
+RAY_ENV = {**os.environ, "RAY_USAGE_STATS_ENABLED": "0", "ANONYMIZED_TELEMETRY": "False"}
+
+
+@contextmanager
+def ray_cluster(timeout_s: float = 90) -> Iterator[str]:
+    """A one-node Ray cluster on loopback, as `ray start --head --block` makes it (its own ports, its
+    own temporary directory); yields its address, then stops it by ending the process group that
+    `ray start --block` leads (SIGTERM lets it stop what it started; what lingers goes with SIGKILL)."""
+    import signal
+
+    temp = Path(tempfile.mkdtemp(prefix="rc-ray-"))  # short: Ray's socket paths must stay under 108 bytes
+    port = free_port()
+    command = [
+        *(str(Path(sys.executable).parent / "ray"), "start", "--head", "--block"),
+        *("--node-ip-address", "127.0.0.1", "--port", str(port), "--num-cpus", "2"),
+        *("--include-dashboard=false", "--disable-usage-stats", "--temp-dir", str(temp)),
+        *("--ray-client-server-port", str(free_port()), "--dashboard-port", str(free_port())),
+        *("--dashboard-agent-listen-port", str(free_port())),
+    ]
+    log = temp / "ray-start.log"
+    with log.open("w") as out:
+        proc = subprocess.Popen(command, stdout=out, stderr=subprocess.STDOUT, env=RAY_ENV, start_new_session=True)
+    try:
+        deadline = time.monotonic() + timeout_s
+        while "Ray runtime started" not in log.read_text(errors="replace"):
+            if proc.poll() is not None or time.monotonic() > deadline:
+                raise RuntimeError("ray start failed:\n" + log.read_text(errors="replace")[-3000:])
+            time.sleep(0.2)
+        yield f"127.0.0.1:{port}"
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGTERM)
+        with contextlib.suppress(subprocess.TimeoutExpired):
+            proc.wait(timeout=5)
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait(timeout=10)
+        shutil.rmtree(temp, ignore_errors=True)

@@ -10,7 +10,6 @@ import json
 import os
 import select
 import signal
-import socket
 import subprocess
 import time
 import uuid
@@ -22,17 +21,12 @@ import anyio
 import pytest
 from mcp import Client
 
-from tests.helpers import free_port, server_command
+from tests.helpers import http_server, server_command, server_env
 
 pytestmark = pytest.mark.anyio
 
 #: Longer than this without an answer, the server is hung.
 ANSWER_TIMEOUT_S = 60.0
-
-
-def server_env() -> dict[str, str]:
-    """The environment, without a token a developer may have set (these clients send none)."""
-    return {k: v for k, v in os.environ.items() if k != "ROBOCOG_AUTH_TOKEN"} | {"ANONYMIZED_TELEMETRY": "False"}
 
 
 class RawStdioServer:
@@ -186,27 +180,8 @@ def test_bad_lines_on_stdio_leave_a_server_that_answers_and_a_world_intact(tmp_p
 @pytest.fixture
 def http_url(tmp_path: Path) -> Iterator[str]:
     """`robocog-server --transport http --profile eval` on a free loopback port; its /mcp URL."""
-    port = free_port()
-    log_path = tmp_path / "http.log"
-    command = [*server_command(), "--transport", "http", "--port", str(port), "--profile", "eval"]
-    with log_path.open("wb") as log:
-        proc = subprocess.Popen(
-            [*command, "--data-dir", str(tmp_path / "memory")], stdout=log, stderr=subprocess.STDOUT, env=server_env()
-        )
-        try:
-            deadline = time.monotonic() + 60
-            while True:
-                assert proc.poll() is None, log_path.read_text()
-                assert time.monotonic() < deadline, "the HTTP server did not listen within 60 s"
-                with socket.socket() as s:
-                    if s.connect_ex(("127.0.0.1", port)) == 0:
-                        break
-                time.sleep(0.1)
-            yield f"http://127.0.0.1:{port}/mcp"
-            assert proc.poll() is None, log_path.read_text()
-        finally:
-            proc.terminate()
-            proc.wait(timeout=30)
+    with http_server(tmp_path / "http.log", "--profile", "eval", "--data-dir", str(tmp_path / "memory")) as url:
+        yield url
 
 
 async def test_32_http_clients_at_once_all_get_answers(http_url: str) -> None:

@@ -20,6 +20,7 @@ import yaml
 from robocog.agent.evaluation import mend_torn_tail, read_rows
 from robocog.server.world.world import DEFAULT_SCENE
 from robocog.shared.evaluation import AttemptRow
+from tests.helpers import free_port
 
 BIN = Path(sys.executable).parent
 
@@ -94,6 +95,19 @@ def test_server_with_both_data_dir_and_memory_url_prints_one_line(tmp_path: Path
     assert line.startswith("robocog-server: --data-dir and --memory-url cannot be used together")
 
 
+@pytest.mark.parametrize(
+    ("args", "problem"),
+    [
+        (["--robots", "4"], "--robots above 1 needs --transport http"),
+        (["--robots", "4", "--transport", "http", "--max-sessions", "2"], "--max-sessions 2 is below --robots 4"),
+        (["--robots", "2", "--transport", "http", "--view", "0"], "--view watches one robot"),
+    ],
+)
+def test_a_fleet_with_options_it_cannot_honour_prints_one_line(args: list[str], problem: str) -> None:
+    line = one_line_error("robocog-server", *args)
+    assert problem in line
+
+
 def study(tmp_path: Path, text: str) -> Path:
     path = tmp_path / "study.yaml"
     path.write_text(text, encoding="utf-8")
@@ -129,9 +143,10 @@ def test_eval_checks_the_scene_its_servers_get(tmp_path: Path, household: dict[s
     scene = scene_file(tmp_path, household, "edge")
     path = study(tmp_path, GOOD_STUDY + f"server_args: [--scene, {scene}]\n")
     assert one_line_error("robocog", "eval", path) == f"robocog: {scene}: {EXPECTED['edge']}"
-    path = study(tmp_path, GOOD_STUDY + "server_args: [--memory-url, 'http://127.0.0.1:8000']\n")
+    url = f"http://127.0.0.1:{free_port()}"  # nothing listens there
+    path = study(tmp_path, GOOD_STUDY + f"server_args: [--memory-url, '{url}']\n")
     line = one_line_error("robocog", "eval", path)
-    assert line.startswith(f"robocog: {path}: server_args: --memory-url cannot be used together with --data-dir")
+    assert line.startswith(f"robocog: {path}: server_args: --memory-url {url}: no Chroma server answers there")
 
 
 def test_eval_with_an_unwritable_results_file_prints_one_line(tmp_path: Path) -> None:

@@ -7,10 +7,8 @@ import copy
 import json
 import os
 import shutil
-import socket
 import subprocess
 import sys
-import time
 from collections.abc import Iterator
 from importlib.metadata import entry_points
 from pathlib import Path
@@ -22,7 +20,7 @@ from mcp import Client
 from robocog.agent.contract import dump_contract, shipped_contract_path, validate_structured
 from robocog.agent.contract_diff import EXIT_BREAKING, EXIT_OK, EXIT_UNREACHABLE, Change, compare_contracts, report
 from robocog.server.testing import RobocogWorld
-from tests.helpers import CONTRACT_DIR, T1_SEQUENCE, action_args, free_port
+from tests.helpers import CONTRACT_DIR, T1_SEQUENCE, action_args, free_port, http_server
 
 pytestmark = pytest.mark.anyio
 
@@ -286,31 +284,10 @@ def robocog(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
 
 
 @pytest.fixture
-def http_server(tmp_path: Path) -> Iterator[str]:
+def http_url(tmp_path: Path) -> Iterator[str]:
     """`robocog-server --transport http` in the default profile, on a free port."""
-    port = free_port()
-    script = shutil.which("robocog-server", path=str(Path(sys.executable).parent))
-    command = [script] if script else [sys.executable, "-m", "robocog.server.cli"]
-    log = (tmp_path / "server.log").open("w")
-    proc = subprocess.Popen(
-        [*command, "--transport", "http", "--port", str(port), "--data-dir", str(tmp_path / "memory")],
-        stdout=log,
-        stderr=subprocess.STDOUT,
-        env={**os.environ, "ANONYMIZED_TELEMETRY": "False"},
-    )
-    try:
-        deadline = time.monotonic() + 30
-        while time.monotonic() < deadline:
-            assert proc.poll() is None, (tmp_path / "server.log").read_text()
-            with socket.socket() as s:
-                if s.connect_ex(("127.0.0.1", port)) == 0:
-                    break
-            time.sleep(0.1)
-        yield f"http://127.0.0.1:{port}/mcp"
-    finally:
-        proc.terminate()
-        proc.wait(timeout=10)
-        log.close()
+    with http_server(tmp_path / "server.log", "--data-dir", str(tmp_path / "memory")) as url:
+        yield url
 
 
 async def test_check_against_a_spawned_stdio_server_names_a_newly_required_argument_breaking(
@@ -327,15 +304,15 @@ async def test_check_against_a_spawned_stdio_server_names_a_newly_required_argum
     assert "BREAKING: 1 breaking, 0 compatible" in done.stdout
 
 
-def test_check_and_dump_over_http_list_a_new_tool_as_compatible(http_server: str, tmp_path: Path) -> None:
-    dumped = robocog("contract", "dump", "--url", http_server, cwd=tmp_path)
+def test_check_and_dump_over_http_list_a_new_tool_as_compatible(http_url: str, tmp_path: Path) -> None:
+    dumped = robocog("contract", "dump", "--url", http_url, cwd=tmp_path)
     assert dumped.returncode == EXIT_OK, dumped.stderr
     baseline = json.loads(dumped.stdout)
     assert {t["name"] for t in baseline["tools"]} == {t["name"] for t in load("default")["tools"]}
     baseline["tools"] = [t for t in baseline["tools"] if t["name"] != "search_memory"]
     path = tmp_path / "baseline.json"
     path.write_text(json.dumps(baseline), encoding="utf-8")
-    done = robocog("contract", "check", str(path), "--url", http_server, "--exercise", cwd=tmp_path)
+    done = robocog("contract", "check", str(path), "--url", http_url, "--exercise", cwd=tmp_path)
     assert done.returncode == EXIT_OK, done.stdout + done.stderr
     assert "compatible  tool search_memory: added" in done.stdout
     assert "compatible: 0 breaking, 1 compatible" in done.stdout

@@ -3,14 +3,10 @@ run on a real (loopback) Ray cluster giving the rows of a local run."""
 
 from __future__ import annotations
 
-import contextlib
 import json
 import os
-import shutil
-import signal
 import subprocess
 import sys
-import tempfile
 import time
 import urllib.request
 from collections.abc import Iterator
@@ -25,7 +21,7 @@ from robocog.agent.evaluation import read_rows, run_eval
 from robocog.shared.errors import ModelServiceError, ServerConnectionError
 from robocog.shared.evaluation import AttemptRow, EvalConfig, ModelSpec
 from robocog.shared.trace import ModelTurn, read_trace
-from tests.helpers import free_port, stdio_params
+from tests.helpers import RAY_ENV, free_port, ray_cluster, stdio_params
 
 pytestmark = pytest.mark.anyio
 
@@ -168,55 +164,12 @@ async def test_one_robots_report_is_found_by_another_robot_through_a_shared_chro
 # --- a study on a real Ray cluster (loopback) ----------------------------------------------------
 
 BIN = Path(sys.executable).parent
-#: The environment of everything Ray here: offline, nothing reported.
-RAY_ENV = {**os.environ, "RAY_USAGE_STATS_ENABLED": "0", "ANONYMIZED_TELEMETRY": "False"}
 
 
 @pytest.fixture(scope="module")
 def ray_address() -> Iterator[str]:
-    """A one-node Ray cluster on loopback, as `ray start --head` makes it (its own ports, its own
-    temporary directory), stopped with the process group `ray start --block` leads."""
-    temp = Path(tempfile.mkdtemp(prefix="rc-ray-"))  # short: Ray's socket paths must stay under 108 bytes
-    port = free_port()
-    command = [
-        str(BIN / "ray"),
-        "start",
-        "--head",
-        "--block",
-        "--node-ip-address",
-        "127.0.0.1",
-        "--port",
-        str(port),
-        "--num-cpus",
-        "2",
-        "--include-dashboard=false",
-        "--disable-usage-stats",
-        "--temp-dir",
-        str(temp),
-        *("--ray-client-server-port", str(free_port())),
-        *("--dashboard-port", str(free_port())),
-        *("--dashboard-agent-listen-port", str(free_port())),
-    ]
-    log = (temp / "ray-start.log").open("w+")
-    proc = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, env=RAY_ENV, start_new_session=True)
-    try:
-        deadline = time.monotonic() + 90
-        while "Ray runtime started" not in (temp / "ray-start.log").read_text(errors="replace"):
-            if proc.poll() is not None or time.monotonic() > deadline:
-                pytest.fail("ray start failed:\n" + (temp / "ray-start.log").read_text(errors="replace")[-3000:])
-            time.sleep(0.2)
-        yield f"127.0.0.1:{port}"
-    finally:
-        # SIGTERM lets `ray start --block` stop what it started; what lingers goes with the group.
-        with contextlib.suppress(ProcessLookupError):
-            os.killpg(proc.pid, signal.SIGTERM)
-        with contextlib.suppress(subprocess.TimeoutExpired):
-            proc.wait(timeout=5)
-        with contextlib.suppress(ProcessLookupError):
-            os.killpg(proc.pid, signal.SIGKILL)
-        proc.wait(timeout=10)
-        log.close()
-        shutil.rmtree(temp, ignore_errors=True)
+    with ray_cluster() as address:
+        yield address
 
 
 def robocog_eval(*args: str) -> subprocess.Popen[str]:
@@ -305,3 +258,41 @@ def test_an_address_where_no_cluster_answers_fails_at_once_in_one_line() -> None
     port = free_port()
     with pytest.raises(ServerConnectionError, match=rf"--ray: no Ray cluster answers at 127\.0\.0\.1:{port}"):
         check_reachable(f"127.0.0.1:{port}")
+
+
+async def test_a_traces_pictures_travel_from_the_actor_to_the_driver(tmp_path: Path) -> None:
+    """An actor sends a trace's pictures (look's) with its row; the driver writes them beside the
+    trace, where a local run keeps them, and the actor's node-local copies are gone."""
+    import asyncio
+
+    from robocog.agent.distributed import RemoteRunner, store_row
+    from robocog.agent.evaluation import Runner
+    from robocog.agent.trace import Trace
+
+    config = study(ModelSpec(model="scripted/planner"), trials=1, memory_iterations=1)
+    actor = RemoteRunner(config, tmp_path / "actor" / "r.jsonl", None)
+    trace_path = actor.traces_dir / "m" / "trial-0" / "iter-0-T1.jsonl"
+    trace = Trace(trace_path)
+    reference = trace.save_image(b"\x89PNG fake", tool="look")
+    trace.close()
+    row = AttemptRow.model_validate(
+        {
+            **{"model": "m", "trial": 0, "memory_iteration": 0, "task": "T1", "invocations": 1, "tool_calls": 1},
+            **{"outcome": "ended", "believed_success": True, "true_success": True, "agreement": True},
+            **{"stopped": False, "tokens_in": 0, "tokens_out": 0, "cost": None, "llm_latency_s": 0.0},
+            **{"wall_s": 0.0, "seed": 0, "memory_labels": "believed", "version": "x"},
+            "trace": str(trace_path.relative_to(actor.out.parent)),
+        }
+    )
+    actor.forward.events = asyncio.Queue()
+    await actor.write(row)
+    kind, row_json, text, images = actor.forward.events.get_nowait()
+    assert kind == "row" and text is not None and list(images.values()) == [b"\x89PNG fake"]
+    assert not trace_path.exists() and not trace_path.with_name("iter-0-T1.images").exists()
+
+    driver = Runner(config, tmp_path / "driver" / "r.jsonl")
+    driver.out.parent.mkdir()
+    await store_row(driver, AttemptRow.model_validate_json(row_json), text, images)
+    written = (driver.out.parent / str(row.trace)).parent / reference  # the reference is relative to the trace
+    assert written.read_bytes() == b"\x89PNG fake"
+    assert read_rows(driver.out) == [row]

@@ -2,17 +2,14 @@
 
 from __future__ import annotations
 
-import os
-import socket
 import subprocess
-import time
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 from mcp import Client
 
-from tests.helpers import T1, T1_SEQUENCE, T2, T2_SEQUENCE, action_args, free_port, server_command, stdio_params
+from tests.helpers import T1, T1_SEQUENCE, T2, T2_SEQUENCE, action_args, http_server, server_command, stdio_params
 
 pytestmark = pytest.mark.anyio
 
@@ -38,42 +35,13 @@ async def test_t1_then_t2_over_stdio(tmp_path: Path) -> None:
 
 
 @pytest.fixture
-def http_server(tmp_path: Path) -> Iterator[str]:
-    port = free_port()
-    log = (tmp_path / "server.log").open("w")
-    proc = subprocess.Popen(
-        [
-            *server_command(),
-            "--transport",
-            "http",
-            "--port",
-            str(port),
-            "--profile",
-            "eval",
-            "--data-dir",
-            str(tmp_path / "memory"),
-        ],
-        stdout=log,
-        stderr=subprocess.STDOUT,
-        env={**os.environ, "ANONYMIZED_TELEMETRY": "False"},
-    )
-    try:
-        deadline = time.monotonic() + 30
-        while time.monotonic() < deadline:
-            assert proc.poll() is None, (tmp_path / "server.log").read_text()
-            with socket.socket() as s:
-                if s.connect_ex(("127.0.0.1", port)) == 0:
-                    break
-            time.sleep(0.1)
-        yield f"http://127.0.0.1:{port}/mcp"
-    finally:
-        proc.terminate()
-        proc.wait(timeout=10)
-        log.close()
+def http_url(tmp_path: Path) -> Iterator[str]:
+    with http_server(tmp_path / "server.log", "--profile", "eval", "--data-dir", str(tmp_path / "memory")) as url:
+        yield url
 
 
-async def test_t1_then_t2_over_http(http_server: str) -> None:
-    async with Client(http_server) as client:
+async def test_t1_then_t2_over_http(http_url: str) -> None:
+    async with Client(http_url) as client:
         await run_t1_then_t2(client)
 
 

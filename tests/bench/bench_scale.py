@@ -1,15 +1,20 @@
 """Scale figures, offline, with the scripted models' latency model.
 
-- Throughput: the planner on T1 with `latency_s=1.0` per model turn, `--workers N` (one server
-  process per worker, as today) for N in 8, 16, 32, each worker running two units. Reported:
+- A fleet's memory: one `robocog-server --robots 64` process, its RSS as 1, 2, 4, ... 64 sessions
+  each take a robot; per additional robot (goal <= 40 MB) and for 64 robots (goal <= 2.5 GB).
+- Throughput: the planner on T1 with `latency_s=1.0` per model turn, `--workers N`, each worker
+  running two units: 16 workers with a server process each (`isolation: process`), and 16 and 64
+  workers on fleets (`isolation: fleet`, a fleet per core). Reported:
   attempts per minute once every worker's server is up (each attempt counted for the part of it
   that ran after that moment), against the ideal N x 60 / (turns x 1 s); the rate over the whole
   run, start-up included; and the servers' resident memory (the most seen while they worked).
+- A scripted study without latency (planner + overconfident, T1 T2) on fleets with 1 and 2 workers,
+  and with 2 server processes: the speedup of the second worker.
 - The Ray path: a small study (planner + overconfident, 2 trials, 2 memory iterations, T1 T2,
   2 workers) on a local one-node Ray cluster (`ray start --head` on loopback, started before the
   clock runs) against the same study run locally; goal <= 1.3x.
 
-`python tests/bench/bench_scale.py [--only throughput|ray] [--workers 8,16,32]` runs them alone.
+`python tests/bench/bench_scale.py [--only fleet|throughput|speedup|ray]` runs them alone.
 """
 
 from __future__ import annotations
@@ -19,13 +24,11 @@ import asyncio
 import contextlib
 import json
 import os
-import shutil
-import signal
-import subprocess
+import resource
 import sys
 import tempfile
 import time
-from collections.abc import AsyncIterator, Iterator
+from collections.abc import AsyncIterator
 from pathlib import Path
 from typing import Any
 
@@ -35,11 +38,13 @@ from robocog.shared.evaluation import EvalConfig
 from robocog.shared.trace import ModelTurn, read_trace
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository, for tests.helpers
-from tests.helpers import free_port
+from tests.helpers import ray_cluster
 
 BIN = Path(sys.executable).parent
 LATENCY_S = 1.0
-WORKERS = (8, 16, 32)
+#: (isolation, workers) of the throughput runs.
+THROUGHPUT = (("process", 16), ("fleet", 16), ("fleet", 64))
+FLEET_ROBOTS = 64
 
 
 def _study(**settings: Any) -> EvalConfig:
@@ -68,7 +73,65 @@ def _server_pids() -> list[int]:
     return pids
 
 
-def throughput(workers: int) -> dict[str, float]:
+def fleet_memory() -> dict[str, float]:
+    """One fleet server; its RSS as more and more sessions each take a robot (a look_around)."""
+    from mcp import Client
+    from mcp.client.streamable_http import streamable_http_client
+
+    from tests.helpers import http_server
+
+    figures: dict[str, float] = {}
+
+    async def grow(url: str, pid: int) -> None:
+        async with contextlib.AsyncExitStack() as stack:
+            clients: list[Any] = []
+            for n in (1, 2, 4, 8, 16, 32, 64):
+                while len(clients) < n:
+                    client = await stack.enter_async_context(Client(streamable_http_client(url), mode="legacy"))
+                    result = await client.call_tool("look_around", {})
+                    assert not result.is_error, result.content
+                    clients.append(client)
+                figures[f"scale.fleet_rss_{n}_robots_mb"] = round(_rss_mb([pid]), 1)
+
+    with tempfile.TemporaryDirectory() as tmp:
+        args = ["--robots", str(FLEET_ROBOTS), "--max-sessions", str(FLEET_ROBOTS + 4), "--data-dir", f"{tmp}/m"]
+        with http_server(Path(tmp) / "fleet.log", *args) as url:
+            time.sleep(3)  # the first robot and the embedding model are built in the background
+            pid = max(_server_pids())
+            figures["scale.fleet_rss_idle_mb"] = round(_rss_mb([pid]), 1)
+            asyncio.run(grow(url, pid))
+    one, all_ = figures["scale.fleet_rss_1_robots_mb"], figures[f"scale.fleet_rss_{FLEET_ROBOTS}_robots_mb"]
+    figures["scale.fleet_rss_per_extra_robot_mb"] = round((all_ - one) / (FLEET_ROBOTS - 1), 1)
+    figures["scale.fleet_rss_per_extra_robot_target_mb"] = 40
+    figures["scale.fleet_rss_64_robots_target_mb"] = 2560
+    return figures
+
+
+def speedup() -> dict[str, float]:
+    """A scripted study without latency: fleets with 1 and 2 workers, and 2 server processes."""
+    times: dict[str, float] = {}
+    for isolation, workers in (("fleet", 1), ("fleet", 2), ("process", 2)):
+        config = _study(
+            models=[{"model": "scripted/planner"}, {"model": "scripted/overconfident", "params": {"p": 0.3}}],
+            tasks=["T1", "T2"],
+            trials=4,
+            memory_iterations=2,
+            workers=workers,
+            isolation=isolation,
+        )
+        with tempfile.TemporaryDirectory() as tmp:
+            start = time.monotonic()
+            asyncio.run(run_eval(config, Path(tmp) / "r.jsonl"))
+            times[f"{isolation}_{workers}"] = time.monotonic() - start
+    return {
+        "scale.study_fleet_1_worker_s": round(times["fleet_1"], 1),
+        "scale.study_fleet_2_workers_s": round(times["fleet_2"], 1),
+        "scale.study_fleet_speedup_2_workers": round(times["fleet_1"] / times["fleet_2"], 2),
+        "scale.study_process_2_workers_s": round(times["process_2"], 1),
+    }
+
+
+def throughput(isolation: str, workers: int) -> dict[str, float]:
     """N workers, 2N units of one T1 attempt each, at LATENCY_S per model turn."""
     config = _study(
         models=[{"model": "scripted/planner", "params": {"latency_s": LATENCY_S}}],
@@ -76,6 +139,7 @@ def throughput(workers: int) -> dict[str, float]:
         trials=2 * workers,
         memory_iterations=1,
         workers=workers,
+        isolation=isolation,
     )
     ready: list[float] = []
     finished: list[float] = []
@@ -95,6 +159,7 @@ def throughput(workers: int) -> dict[str, float]:
                 rss.append(_rss_mb(_server_pids()))
 
     evaluation.connect = timed_connect
+    cpu_before = _cpu_s()
     try:
         with tempfile.TemporaryDirectory() as tmp:
             out = Path(tmp) / "r.jsonl"
@@ -110,10 +175,14 @@ def throughput(workers: int) -> dict[str, float]:
     done = sum(
         min(1.0, max(0.0, (t - up) / r.wall_s)) if r.wall_s > 0 else 1.0 for t, r in zip(finished, rows, strict=True)
     )
+    harness_cpu, servers_cpu = (after - before for after, before in zip(_cpu_s(), cpu_before, strict=True))
     mean_turns = sum(turns) / len(turns)
     ideal = workers * 60 / (mean_turns * LATENCY_S)
     steady = done / (end - up) * 60
-    key = f"scale.latency1s_{workers}_workers"
+    # The most this machine's cores could run, given the CPU an attempt took (harness + servers).
+    cpu_per_attempt = (harness_cpu + servers_cpu) / len(rows)
+    cpu_ceiling = (os.cpu_count() or 1) * 60 / cpu_per_attempt
+    key = f"scale.latency1s_{isolation}_{workers}_workers"
     return {
         f"{key}.attempts": len(rows),
         f"{key}.turns_per_attempt": round(mean_turns, 1),
@@ -123,41 +192,17 @@ def throughput(workers: int) -> dict[str, float]:
         f"{key}.fraction_of_ideal": round(steady / ideal, 2),
         f"{key}.attempts_per_min_with_startup": round(len(rows) / (end - start) * 60, 1),
         f"{key}.servers_peak_rss_mb": round(max(rss, default=0.0)),
-        f"{key}.rss_per_server_mb": round(max(rss, default=0.0) / workers),
+        f"{key}.rss_per_worker_mb": round(max(rss, default=0.0) / workers),
+        f"{key}.harness_cpu_s_per_attempt": round(harness_cpu / len(rows), 2),
+        f"{key}.servers_cpu_s_per_attempt": round(servers_cpu / len(rows), 2),
+        f"{key}.cpu_bound_attempts_per_min": round(cpu_ceiling, 1),
     }
 
 
-@contextlib.contextmanager
-def ray_cluster() -> Iterator[str]:
-    """`ray start --head --block` on loopback with its own ports and directory; stopped with its group."""
-    temp = Path(tempfile.mkdtemp(prefix="rc-ray-"))
-    port = free_port()
-    command = [
-        *(str(BIN / "ray"), "start", "--head", "--block", "--node-ip-address", "127.0.0.1", "--port", str(port)),
-        *("--num-cpus", "2", "--include-dashboard=false", "--disable-usage-stats", "--temp-dir", str(temp)),
-        *("--ray-client-server-port", str(free_port()), "--dashboard-port", str(free_port())),
-        *("--dashboard-agent-listen-port", str(free_port())),
-    ]
-    log = temp / "ray-start.log"
-    env = {**os.environ, "RAY_USAGE_STATS_ENABLED": "0"}
-    with log.open("w") as f:
-        proc = subprocess.Popen(command, stdout=f, stderr=subprocess.STDOUT, env=env, start_new_session=True)
-    try:
-        deadline = time.monotonic() + 120
-        while "Ray runtime started" not in log.read_text(errors="replace"):
-            if proc.poll() is not None or time.monotonic() > deadline:
-                raise RuntimeError("ray start failed:\n" + log.read_text(errors="replace")[-2000:])
-            time.sleep(0.2)
-        yield f"127.0.0.1:{port}"
-    finally:
-        with contextlib.suppress(ProcessLookupError):
-            os.killpg(proc.pid, signal.SIGTERM)
-        with contextlib.suppress(subprocess.TimeoutExpired):
-            proc.wait(timeout=5)
-        with contextlib.suppress(ProcessLookupError):
-            os.killpg(proc.pid, signal.SIGKILL)
-        proc.wait(timeout=10)
-        shutil.rmtree(temp, ignore_errors=True)
+def _cpu_s() -> tuple[float, float]:
+    """CPU seconds used so far by this process (the harness) and by its children that have ended."""
+    me, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return me.ru_utime + me.ru_stime, children.ru_utime + children.ru_stime
 
 
 def ray_overhead() -> dict[str, float]:
@@ -205,11 +250,15 @@ def ray_overhead() -> dict[str, float]:
     }
 
 
-def run(only: str = "", workers: tuple[int, ...] = WORKERS) -> dict[str, Any]:
+def run(only: str = "") -> dict[str, Any]:
     figures: dict[str, Any] = {}
+    if only in ("", "fleet"):
+        figures.update(fleet_memory())
     if only in ("", "throughput"):
-        for n in workers:
-            figures.update(throughput(n))
+        for isolation, n in THROUGHPUT:
+            figures.update(throughput(isolation, n))
+    if only in ("", "speedup"):
+        figures.update(speedup())
     if only in ("", "ray"):
         figures.update(ray_overhead())
     return figures
@@ -217,7 +266,6 @@ def run(only: str = "", workers: tuple[int, ...] = WORKERS) -> dict[str, Any]:
 
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--only", choices=["throughput", "ray"], default="")
-    parser.add_argument("--workers", default=",".join(map(str, WORKERS)))
+    parser.add_argument("--only", choices=["fleet", "throughput", "speedup", "ray"], default="")
     args = parser.parse_args()
-    print(json.dumps(run(args.only, tuple(int(n) for n in args.workers.split(","))), indent=2))
+    print(json.dumps(run(args.only), indent=2))

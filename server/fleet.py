@@ -1,0 +1,214 @@
+"""The robots of one server process: one robot shared by every client, or a fleet of them.
+
+A server with one robot (the default) is what a desktop assistant talks to: every client sees the
+same world, and the first that acts holds it (the lease, `ownership.py`). A fleet
+(`robocog-server --robots N`) gives each driver its own robot instead (its world, scratchpad,
+episode and memory namespace) so that a harness keeps dozens of episodes in flight against one
+process. A driver is what `ownership.Driver` says it is: an HTTP session, a connection, or a
+client that names itself; its robot goes back to the pool when the driver goes (its connection
+closes, or it is silent for `idle_s`), and is made as good as new (`RobotSession.recycle`) before
+the next driver gets it.
+
+The robots share what is heavy and shareable: the embedding model (one per process already), and
+one Chroma client and collection handle per memory namespace (`Memories`). Each robot is its own
+PyBullet client (about 37 MB) and its calls are serialised by its own lock; different robots' calls
+run on worker threads side by side (PyBullet holds the GIL while it steps, so one process uses about
+one core: a machine's cores are used by a few fleet processes).
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections.abc import Callable, Hashable
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, TypeVar
+
+import anyio
+import anyio.to_thread
+from mcp.server.mcpserver.exceptions import ToolError
+
+from robocog.server.config import DEFAULT_SESSION_IDLE_S, SessionConfig
+from robocog.server.ownership import Driver, RobotLease
+
+if TYPE_CHECKING:
+    from robocog.server.memory.episodic import EpisodicMemory
+    from robocog.server.session import RobotSession
+
+T = TypeVar("T")
+logger = logging.getLogger("robocog.server.fleet")
+
+
+class Memories:
+    """One episodic memory per namespace, opened on first use and shared by every robot of the
+    process (one Chroma client; the embedding model is per process anyway)."""
+
+    def __init__(self, config: SessionConfig) -> None:
+        self.config = config
+        self._open: dict[str, EpisodicMemory] = {}
+        self._lock = threading.Lock()
+
+    def __call__(self, namespace: str) -> EpisodicMemory:
+        from robocog.server.memory.episodic import EpisodicMemory
+
+        with self._lock:  # robots open memories on worker threads
+            memory = self._open.get(namespace)
+            if memory is None:
+                memory = EpisodicMemory(self.config.data_dir, url=self.config.memory_url, namespace=namespace)
+                self._open[namespace] = memory
+            return memory
+
+    def close(self) -> None:
+        with self._lock:
+            for memory in self._open.values():
+                memory.close()
+            self._open.clear()
+
+
+@dataclass(eq=False)
+class Robot:
+    """One robot: its session, the lock that serialises calls on it, and who may act on it."""
+
+    number: int
+    session: RobotSession
+    lease: RobotLease
+    clock: Callable[[], float] = time.monotonic
+    lock: anyio.Lock = field(default_factory=anyio.Lock)
+    #: The driver it is bound to (a fleet's robots; None: free, or a single robot shared by all).
+    driver: Driver | None = None
+    #: Whether a driver has had it (recycle it before the next one).
+    used: bool = False
+    last_call: float = 0.0
+
+    async def run(self, fn: Callable[[RobotSession], T], limiter: anyio.CapacityLimiter | None = None) -> T:
+        """Run `fn(session)` on a worker thread, one call at a time on this robot, to completion
+        (a cancelled call still finishes its action: the world is always left consistent)."""
+        async with self.lock:
+            self.last_call = self.clock()
+            try:
+                return await anyio.to_thread.run_sync(fn, self.session, abandon_on_cancel=False, limiter=limiter)
+            finally:
+                self.last_call = self.clock()
+
+
+class FleetFull(ToolError):
+    """Every robot of the fleet is driven by someone."""
+
+
+class Fleet:
+    """The server's robots: one robot for everyone, or (`per_driver`, by default when `capacity` is
+    above 1) one robot per driver, up to `capacity`."""
+
+    def __init__(
+        self,
+        config: SessionConfig,
+        *,
+        capacity: int = 1,
+        per_driver: bool | None = None,
+        idle_s: float = DEFAULT_SESSION_IDLE_S,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        if capacity < 1:
+            raise ValueError(f"a server has at least one robot, not {capacity}")
+        self.config = config
+        self.capacity = capacity
+        #: A robot per driver (a fleet), or one robot for all; a fleet's process behind a router is a
+        #: fleet even with one robot.
+        self.per_driver = capacity > 1 if per_driver is None else per_driver
+        self.idle_s = idle_s
+        self._clock = clock
+        self.memories = Memories(config)
+        self.robots: list[Robot] = []
+        self._free: list[Robot] = []
+        self._bound: dict[Hashable, Robot] = {}
+        self._assigning = anyio.Lock()
+        # Different robots' calls run side by side: a thread each (anyio's default is 40 in all).
+        self.limiter = anyio.CapacityLimiter(max(4, capacity + 2))
+
+    @property
+    def shared(self) -> bool:
+        """One robot that every client shares (the lease decides who may act)."""
+        return not self.per_driver
+
+    @property
+    def first(self) -> Robot | None:
+        return self.robots[0] if self.robots else None
+
+    def build(self) -> Robot:
+        """Build one more robot (on a worker thread: it takes about 0.2 s) and keep it free."""
+        from robocog.server.session import RobotSession
+
+        memories = None if self.shared else self.memories
+        session = RobotSession(self.config, memories=memories)
+        lease = RobotLease(idle_s=self.idle_s, clock=self._clock)
+        robot = Robot(number=len(self.robots) + 1, session=session, lease=lease, clock=self._clock)
+        self.robots.append(robot)
+        self._free.append(robot)
+        return robot
+
+    async def robot_for(self, driver: Driver | None) -> Robot:
+        """The robot `driver` drives: the shared one, the one bound to it, or a free one (recycled, or
+        built while there are fewer than `capacity`). `driver` None (the live viewer, a resource read
+        with no request) gets the first robot. Raises `FleetFull` when every robot is bound."""
+        first = self.first
+        if first is None:
+            raise ToolError("the robot is not available: still starting")
+        if self.shared or driver is None:
+            return first
+        robot = self._bound.get(driver.key)
+        if robot is not None:
+            return robot
+        async with self._assigning:
+            robot = self._bound.get(driver.key)
+            if robot is not None:
+                return robot
+            self._release_idle()
+            if self._free:
+                robot = self._free.pop(0)
+            elif len(self.robots) < self.capacity:
+                robot = await anyio.to_thread.run_sync(self.build, limiter=self.limiter)
+                self._free.remove(robot)
+            else:
+                raise FleetFull(
+                    f"all {self.capacity} robots of this server are driven by other sessions (--robots "
+                    f"{self.capacity}); close a session, wait for one to idle out, or start the server with "
+                    "more robots"
+                )
+            if robot.used:
+                async with robot.lock:
+                    await anyio.to_thread.run_sync(robot.session.recycle, limiter=self.limiter)
+            robot.used = True
+            robot.driver = driver
+            robot.last_call = self._clock()
+            self._bound[driver.key] = robot
+            if driver.connection is not None:
+                driver.connection.exit_stack.callback(self.release, driver.key)
+            logger.info("robot %d now driven by %s", robot.number, driver.label)
+            return robot
+
+    def release(self, key: Hashable) -> None:
+        """The driver `key` has gone: its robot is free again (recycled before its next driver)."""
+        robot = self._bound.pop(key, None)
+        if robot is not None:
+            robot.driver = None
+            robot.lease.release(key)
+            self._free.append(robot)
+            logger.info("robot %d is free", robot.number)
+
+    def _release_idle(self) -> None:
+        """Free the robots of drivers without a connection (they name themselves on each call) that
+        have been silent for `idle_s`."""
+        now = self._clock()
+        for key, robot in list(self._bound.items()):
+            sessionless = robot.driver is not None and robot.driver.connection is None
+            if sessionless and now - robot.last_call > self.idle_s and not robot.lock.locked():
+                self.release(key)
+
+    def in_use(self) -> int:
+        return len(self._bound)
+
+    def close(self) -> None:
+        for robot in self.robots:
+            robot.session.close()
+        self.memories.close()

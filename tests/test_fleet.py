@@ -1,0 +1,245 @@
+"""A fleet server (`robocog-server --robots N`): a robot per driver, private worlds, shared memory
+by namespace, a cap, and robots that come back as good as new. One real HTTP server process for the
+module; the pool's bookkeeping (idle drivers, recycling) also in process with a fake clock."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from collections.abc import AsyncIterator, Iterator
+from contextlib import asynccontextmanager
+from pathlib import Path
+from typing import Any
+
+import anyio
+import httpx
+import pytest
+from mcp import Client
+
+from robocog.agent.evaluation import read_rows, run_eval
+from robocog.server.config import SessionConfig
+from robocog.server.fleet import Fleet, FleetFull
+from robocog.server.ownership import Driver
+from robocog.shared.evaluation import AttemptRow, EvalConfig
+from robocog.shared.protocol import DRIVER_META_KEY as DRIVER
+from tests.helpers import http_server
+
+pytestmark = pytest.mark.anyio
+
+ROBOTS = 3
+CLIENT = {"protocolVersion": "2025-11-25", "capabilities": {}, "clientInfo": {"name": "probe", "version": "1"}}
+
+
+@pytest.fixture(scope="module")
+def fleet_url(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
+    tmp = tmp_path_factory.mktemp("fleet")
+    args = ["--profile", "eval", "--robots", str(ROBOTS), "--data-dir", str(tmp / "memory")]
+    with http_server(tmp / "server.log", *args) as url:
+        yield url
+
+
+@asynccontextmanager
+async def session(url: str) -> AsyncIterator[Client]:
+    """An MCP session (initialize handshake) over HTTP: one driver."""
+    from mcp.client.streamable_http import streamable_http_client
+
+    async with Client(streamable_http_client(url), mode="legacy") as client:
+        yield client
+
+
+async def call(client: Client, tool: str, **arguments: Any) -> dict[str, Any]:
+    result = await client.call_tool(tool, arguments)
+    assert not result.is_error, result.content
+    assert isinstance(result.structured_content, dict)
+    return result.structured_content
+
+
+async def robot_location(client: Client) -> str:
+    contents = (await client.read_resource("robocog://world/state")).contents
+    return str(json.loads(contents[0].text)["robot"]["location"])  # type: ignore[union-attr]
+
+
+async def test_each_session_drives_its_own_world(fleet_url: str) -> None:
+    async with session(fleet_url) as a, session(fleet_url) as b:
+        await call(a, "move_to", location="Kitchen Table")
+        await call(a, "grab", object="mug")
+        # b acts too (no lease between robots of a fleet) and sees its own, untouched world
+        await call(b, "move_to", location="Living Room")
+        assert await robot_location(a) == "Kitchen Table"
+        assert await robot_location(b) == "Living Room"
+        seen = await call(b, "look_around")
+        assert "mug" in json.dumps(seen), "b's mug is still on b's kitchen table"
+        await call(a, "add_to_scratchpad", text="a's note")
+        pad = await call(b, "view_scratchpad")
+        assert "a's note" not in json.dumps(pad)
+
+
+async def test_memory_is_shared_by_namespace_and_private_otherwise(fleet_url: str) -> None:
+    async with session(fleet_url) as a, session(fleet_url) as b:
+        await call(a, "reset_world", memory_namespace="fleet-trial-1")
+        await call(a, "clear_memory")
+        await call(b, "reset_world", memory_namespace="fleet-trial-2")
+        await call(b, "clear_memory")
+        await call(a, "end_task", status="failure", description="grasp the TV", summary="the TV is too heavy")
+        found = await call(b, "search_memory", query="grasp the TV")
+        assert found["results"] == [], "another namespace: nothing of a's"
+        await call(b, "reset_world", memory_namespace="fleet-trial-1")
+        found = await call(b, "search_memory", query="grasp the TV")
+        assert [r["summary"] for r in found["results"]] == ["the TV is too heavy"]
+
+
+async def test_past_the_cap_a_session_is_told_why_and_a_freed_robot_comes_back_new(fleet_url: str) -> None:
+    async with session(fleet_url) as a, session(fleet_url) as b, session(fleet_url) as c:
+        for client in (a, b, c):
+            await call(client, "look_around")
+        await call(c, "move_to", location="Kitchen Door")
+        await call(c, "add_to_scratchpad", text="c was here")
+        async with session(fleet_url) as d:
+            refused = await d.call_tool("look_around", {})
+            assert refused.is_error
+            text = refused.content[0].text  # type: ignore[union-attr]
+            assert f"all {ROBOTS} robots of this server are driven by other sessions" in text
+    # all have gone; a newcomer gets one of their robots, recycled: the start state, an empty pad
+    async with session(fleet_url) as e:
+        for _ in range(50):  # a session's robot is freed just after its DELETE is answered
+            result = await e.call_tool("view_scratchpad", {})
+            if not result.is_error:
+                break
+            await anyio.sleep(0.1)
+        assert not result.is_error, result.content
+        assert "c was here" not in json.dumps(result.structured_content)
+        assert await robot_location(e) == "Front Door"
+
+
+async def test_a_bad_namespace_is_refused_with_what_a_namespace_may_be(fleet_url: str) -> None:
+    async with session(fleet_url) as a:
+        refused = await a.call_tool("reset_world", {"memory_namespace": "../etc"})
+        assert refused.is_error
+        assert "invalid memory namespace" in refused.content[0].text  # type: ignore[union-attr]
+        await call(a, "look_around")  # the robot is still fine
+
+
+# --- a study on fleets gives the rows of a study on server processes ------------------------------------
+
+#: What differs between two runs of the same study: how long things took, and where traces went.
+TIMING = {"llm_latency_s", "wall_s", "trace"}
+STUDY = {
+    "name": "fleet",
+    "models": [{"model": "scripted/overconfident", "params": {"p": 0.5}}],
+    "tasks": ["T1"],
+    "trials": 2,
+    "memory_iterations": 2,
+}
+
+
+def outcome(rows: list[AttemptRow]) -> list[dict[str, Any]]:
+    kept = [r.model_dump(exclude=TIMING) for r in rows]
+    return sorted(kept, key=lambda r: (r["model"], r["trial"], r["memory_iteration"], r["task"]))
+
+
+async def test_a_study_gives_the_same_rows_on_fleets_as_on_server_processes(fleet_url: str, tmp_path: Path) -> None:
+    serial = await run_eval(EvalConfig.model_validate(STUDY | {"workers": 1}), tmp_path / "serial.jsonl")
+    # a running fleet (--url), two workers at once on its robots
+    on_url = await run_eval(EvalConfig.model_validate(STUDY | {"workers": 2}), tmp_path / "url.jsonl", urls=[fleet_url])
+    assert len(serial) == 4 and not any(r.outcome == "error" for r in serial)
+    assert outcome(on_url) == outcome(serial)
+    # fleets the harness spawns, from the command line, as a user runs it
+    config = tmp_path / "study.yaml"
+    config.write_text(json.dumps(STUDY), encoding="utf-8")  # JSON is YAML
+    out = tmp_path / "spawned.jsonl"
+    command = [sys.executable, "-m", "robocog.agent.cli", "eval", str(config), "--out", str(out), "--quiet"]
+    done = subprocess.run(
+        [*command, "--isolation", "fleet", "--fleet-processes", "1", "--workers", "2"],
+        capture_output=True,
+        text=True,
+        timeout=240,
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert outcome(read_rows(out)) == outcome(serial)
+
+
+# --- the pool's bookkeeping, in process ---------------------------------------------------------------
+
+
+class Clock:
+    def __init__(self) -> None:
+        self.now = 0.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+async def test_a_sessionless_drivers_robot_is_freed_after_it_goes_quiet(tmp_path: Path) -> None:
+    clock = Clock()
+    fleet = Fleet(SessionConfig(data_dir=tmp_path), capacity=2, idle_s=10, clock=clock)
+    try:
+        await anyio.to_thread.run_sync(fleet.build)
+        one, two, three = (Driver(("driver", n), n, None) for n in ("one", "two", "three"))
+        r1 = await fleet.robot_for(one)
+        r2 = await fleet.robot_for(two)
+        assert r1 is not r2 and await fleet.robot_for(one) is r1
+        with pytest.raises(FleetFull):
+            await fleet.robot_for(three)
+        await r1.run(lambda s: s.world.drive(["Front Door", "Hallway Area Door"]))
+        clock.now = 11  # one and two have both been quiet past idle_s
+        r3 = await fleet.robot_for(three)
+        assert r3 in (r1, r2) and fleet.in_use() == 1
+        assert r3.session.world.robot_location() == "Front Door", "recycled: back at the start"
+        assert len(fleet.robots) == 2, "no robot built past the capacity"
+    finally:
+        fleet.close()
+
+
+async def test_one_shared_robot_when_the_capacity_is_one(tmp_path: Path) -> None:
+    fleet = Fleet(SessionConfig(data_dir=tmp_path), capacity=1)
+    try:
+        await anyio.to_thread.run_sync(fleet.build)
+        robots = {id(await fleet.robot_for(Driver(("driver", n), n, None))) for n in "abc"}
+        assert len(robots) == 1 and fleet.shared
+    finally:
+        fleet.close()
+
+
+# --- a fleet in several processes behind one address ------------------------------------------------
+
+
+async def test_a_fleet_in_two_processes_behind_one_address(tmp_path: Path) -> None:
+    """Two robots in two processes (one each) behind a router: two sessions both drive (so they went
+    to different processes: each has room for one), and share memory across the processes."""
+    args = ["--profile", "eval", "--robots", "2", "--processes", "2", "--data-dir", str(tmp_path / "memory")]
+    with http_server(tmp_path / "server.log", *args) as url:
+        async with session(url) as a, session(url) as b:
+            await call(a, "move_to", location="Kitchen Door")
+            await call(b, "move_to", location="Living Room")
+            assert (await robot_location(a), await robot_location(b)) == ("Kitchen Door", "Living Room")
+            await call(a, "reset_world", memory_namespace="across")
+            await call(b, "reset_world", memory_namespace="across")
+            await call(a, "end_task", status="failure", description="grasp the TV", summary="it is too heavy")
+            found = await call(b, "search_memory", query="grasp the TV")
+            assert [r["summary"] for r in found["results"]] == ["it is too heavy"]
+            initialize = {
+                "jsonrpc": "2.0",
+                "id": 1,
+                "method": "initialize",
+                "params": CLIENT,
+            }
+            accept = {"accept": "application/json, text/event-stream"}
+            third = await anyio.to_thread.run_sync(lambda: httpx.post(url, json=initialize, headers=accept, timeout=30))
+            assert third.status_code == 503
+            assert "all 2 robots of this server are driven by other sessions" in third.json()["error"]["message"]
+    log = (tmp_path / "server.log").read_text(errors="replace")
+    assert "2 robots in 2 processes" in log and "fleet process 2/2 ready" in log
+
+
+def test_the_router_splits_robots_and_arguments_and_keeps_a_sessionless_driver_in_place() -> None:
+    from robocog.server.router import Router, Upstream, passed_on, shares
+
+    assert shares(5, 2) == [3, 2] and shares(4, 4) == [1, 1, 1, 1]
+    argv = ["--transport", "http", "--port=9", "--robots", "8", "--processes", "2", "--profile", "eval", "--seed", "3"]
+    assert passed_on(argv) == ["--profile", "eval", "--seed", "3"]
+    router = Router([Upstream(0, 1, 2), Upstream(1, 2, 2)])
+    call_by = json.dumps({"jsonrpc": "2.0", "id": 1, "method": "tools/call", "params": {"_meta": {DRIVER: "me"}}})
+    assert len({router.pick(call_by.encode()).index for _ in range(5)}) == 1, "always the same process"
+    router.upstreams[0].sessions["s1"] = 0.0
+    assert router.pick(b'{"jsonrpc": "2.0", "id": 1, "method": "initialize"}').index == 1, "the least loaded"
