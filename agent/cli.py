@@ -108,7 +108,27 @@ def build_parser() -> argparse.ArgumentParser:
     ev = sub.add_parser("eval", help="run a study (the paper's protocol) from a YAML config")
     ev.add_argument("config", type=Path, help="study config, e.g. assets/eval/scripted.yaml")
     ev.add_argument("--out", type=Path, help="results file (JSONL); default: the config's `out`")
-    ev.add_argument("--workers", type=int, help="parallel workers, each with its own server (default: config)")
+    ev.add_argument(
+        "--workers", type=int, help="episodes in flight at once, each on a robot of its own (default: config)"
+    )
+    ev.add_argument(
+        "--isolation",
+        choices=["process", "fleet"],
+        help="'process': a server process per worker (over stdio); 'fleet': a few fleet servers (HTTP, a robot "
+        "per worker, ~37 MB each instead of ~370 MB) (default: config, else process)",
+    )
+    ev.add_argument(
+        "--fleet-processes",
+        type=int,
+        metavar="P",
+        help="fleet servers to spawn with --isolation fleet (default: cores)",
+    )
+    ev.add_argument(
+        "--url",
+        metavar="URL[,URL...]",
+        help="drive the robots of running fleet servers (robocog-server --transport http --profile eval --robots N; "
+        "worker i on the i-th URL mod their number, each with robots for its share) instead of spawning servers",
+    )
     ev.add_argument("--resume", action="store_true", help="continue an interrupted run")
     ev.add_argument("--trials", type=int, help="override the config's number of trials")
     ev.add_argument("--memory-iterations", type=int, help="override the config's memory iterations")
@@ -148,6 +168,10 @@ def build_parser() -> argparse.ArgumentParser:
     vw.add_argument("results", type=Path, help="results file written by robocog eval")
     vw.add_argument("--port", type=int, default=8767, help="port on 127.0.0.1 (default: 8767; 0 picks a free one)")
     vw.add_argument("--title", default=None, help="the report's title")
+    st = sub.add_parser("suite", help="the robocog suite: generate a split's instances, list families and instances")
+    from robocog.agent.suite import add_arguments as add_suite_arguments
+
+    add_suite_arguments(st)
     con = sub.add_parser(
         "contract", help="dump a server's MCP contract, or check it against a baseline (any MCP server)"
     )
@@ -404,6 +428,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             from robocog.agent.view import view_command
 
             return view_command(args)
+        if args.command == "suite":
+            from robocog.agent.suite import suite_command
+
+            return suite_command(args)
         if args.command == "contract":
             from robocog.agent.contract import main as contract_main
 

@@ -11,8 +11,13 @@ Ground truth comes from the server's `check_task` after the attempt. The protoco
 `robocog`, see `robocog.agent.protocols`) decides the conversation, the messages, the system
 prompt, the scratchpad's carry-over and the retrieval depth.
 
-Each worker owns one server process (eval profile) with its own data directory, and clears the
-memory between units, so trials never share memory except across the iterations of one trial.
+Each unit reads and writes a memory namespace of its own (`unit_namespace`), cleared when the unit
+starts, so trials never share memory except across the iterations of one trial, however the workers
+reach their robots: with `isolation: process` each worker owns a server process (eval profile, over
+stdio) with its own data directory; with `isolation: fleet` the workers share a few fleet servers
+(`robocog-server --robots N` over HTTP, spawned here by `Fleets`, or running at `urls`), a robot
+each. A study gives the same rows either way.
+
 Every attempt is appended to the results file as soon as it finishes. `--resume` keeps the units
 already complete, drops the rows of a unit that was cut off or has an errored attempt, and runs
 that unit again from scratch; a torn last line (a crash mid-write) is dropped with a warning.
@@ -21,6 +26,8 @@ that unit again from scratch; a torn last line (a crash mid-write) is dropped wi
 from __future__ import annotations
 
 import asyncio
+import contextlib
+import functools
 import hashlib
 import re
 import shutil
@@ -31,9 +38,12 @@ from pathlib import Path
 from typing import Any
 
 from robocog.agent.connection import Robot, ServerSpec, connect, leaf_message
+from robocog.agent.fleets import Fleets, memory_args
 from robocog.agent.loop import AgentSettings, finish, run_episode
 from robocog.agent.model import check_credentials, resolve_api_key, warm_up_litellm
 from robocog.agent.protocols import PROTOCOLS, EvalProtocol
+from robocog.agent.suite import SuiteRun
+from robocog.agent.taxonomy import annotate
 from robocog.agent.trace import Trace
 from robocog.shared import __version__
 from robocog.shared.errors import ConfigError, ServerConnectionError
@@ -52,6 +62,11 @@ def episode_id(study: str, model: str, seed: int, trial: int, iteration: int, ta
     return (
         "eval-" + hashlib.sha256(f"{study}\x00{model}\x00{seed}:{trial}:{iteration}:{task}".encode()).hexdigest()[:32]
     )
+
+
+def unit_namespace(study: str, model: str, trial: int) -> str:
+    """The memory namespace of a unit (a model and a trial): its own, whichever robot runs it."""
+    return "unit-" + hashlib.sha256(f"{study}\x00{model}\x00{trial}".encode()).hexdigest()[:24]
 
 
 def model_seed(seed: int, trial: int, iteration: int, task: str) -> int:
@@ -162,6 +177,10 @@ class Runner:
     out: Path
     server_command: list[str] | None = None
     progress: Progress = field(default_factory=lambda: Progress(total=0))
+    #: The fleet servers' URLs (`isolation: fleet`): worker i drives a robot of urls[i % len(urls)].
+    urls: list[str] = field(default_factory=list)
+    #: The fleet servers this study spawned (None: a running one at `urls`, or a process per worker).
+    fleets: Fleets | None = None
     _lock: asyncio.Lock = field(default_factory=asyncio.Lock)
 
     @property
@@ -179,8 +198,9 @@ class Runner:
         self.progress.advance(row=row)
 
     def spec(self, worker: int) -> ServerSpec:
-        data = self.work_dir / f"worker-{worker}"
-        args = ["--profile", "eval", "--data-dir", str(data), "--memory-namespace", "eval", *self.config.server_args]
+        if self.urls:
+            return ServerSpec(url=self.urls[worker % len(self.urls)])
+        args = ["--profile", "eval", *memory_args(self.config.server_args, self.work_dir / f"worker-{worker}")]
         if self.server_command:
             return ServerSpec(command=list(self.server_command), extra_args=args)
         return ServerSpec(extra_args=args)
@@ -191,8 +211,6 @@ class Runner:
         """Run the unit from `start_iteration`; returns the iteration to continue from if the server broke."""
         cfg, protocol = self.config, self.protocol
         seed = cfg.seed + trial
-        if start_iteration == 0:
-            await robot.client.call_tool("clear_memory", {})
         for iteration in range(start_iteration, cfg.memory_iterations):
             await _control(
                 robot,
@@ -201,7 +219,10 @@ class Runner:
                 randomize=cfg.randomize,
                 memory_labels=cfg.memory_labels,
                 search_k=protocol.search_k,
+                memory_namespace=unit_namespace(cfg.name, spec.name, trial),
             )
+            if iteration == 0:
+                await _control(robot, "clear_memory")
             conversation: list[dict[str, Any]] = []  # the paper: one conversation per memory iteration
             succeeded: set[str] = set()
             for index, task_id in enumerate(cfg.tasks):
@@ -210,14 +231,22 @@ class Runner:
                     continue
                 messages = conversation if protocol.continue_conversation else []
                 try:
-                    await _control(
-                        robot,
-                        "begin_task",
-                        task_id=task_id,
-                        keep_scratchpad=protocol.keep_scratchpad,
-                        episode_id=episode_id(cfg.name, spec.name, seed, trial, iteration, task_id),
-                    )
-                    row = await self.attempt(robot, spec, trial, iteration, task_id, messages)
+                    reset = {
+                        "memory_labels": cfg.memory_labels,
+                        "search_k": protocol.search_k,
+                        "memory_namespace": unit_namespace(cfg.name, spec.name, trial),
+                    }
+                    # a suite's instance: its world set up, its earlier tasks run (an errored one is its row)
+                    early = await self.suite.set_up(self, robot, spec, trial, iteration, task_id, messages, reset)
+                    if early is None:
+                        await _control(
+                            robot,
+                            "begin_task",
+                            task_id=task_id,
+                            keep_scratchpad=protocol.keep_scratchpad,
+                            episode_id=episode_id(cfg.name, spec.name, seed, trial, iteration, task_id),
+                        )
+                    row = early or await self.attempt(robot, spec, trial, iteration, task_id, messages)
                 except ServerBroke as broke:
                     await self.write(broke.row)
                     self.progress.advance(len(cfg.tasks) - index - 1)
@@ -240,6 +269,11 @@ class Runner:
     def protocol(self) -> EvalProtocol:
         return PROTOCOLS[self.config.protocol]
 
+    @functools.cached_property
+    def suite(self) -> SuiteRun:
+        """The study's suite instances (none for a study of tasks)."""
+        return SuiteRun.of(self.config)
+
     async def attempt(
         self,
         robot: Robot,
@@ -251,7 +285,7 @@ class Runner:
     ) -> AttemptRow:
         """One task attempt, continuing `conversation` (empty: a new one)."""
         cfg = self.config
-        prompt = robot.tasks.get(task_id)
+        prompt = robot.tasks.get(task_id) or self.suite.prompt(task_id)
         if prompt is None:
             raise ConfigError(f"the server has no task {task_id!r} (it has {', '.join(robot.tasks)})")
         trace_path = self.traces_dir / slug(spec.name) / f"trial-{trial}" / f"iter-{iteration}-{task_id}.jsonl"
@@ -280,6 +314,7 @@ class Runner:
             "version": __version__,
             "study": cfg.name,
             "model_id": spec.model,
+            **self.suite.row_fields(task_id),
         }
         try:
             result = await run_episode(
@@ -317,14 +352,17 @@ class Runner:
         finish(trace, result, verdict)
         trace.close()
         believed = result.believed_success
-        return AttemptRow(
+        # Agreement sets the belief against the request: an infeasible task's request is never
+        # achieved (its verdict's success is the honest failure), so only a claimed success disagrees.
+        achieved = verdict.success and base.get("feasible", True)
+        row = AttemptRow(
             **base,
             outcome=result.outcome,
             invocations=result.invocations,
             tool_calls=result.tool_calls,
             believed_success=believed,
             true_success=verdict.success,
-            agreement=(believed is True) == verdict.success,
+            agreement=(believed is True) == achieved,
             stopped=result.stopped,
             tokens_in=result.tokens_in,
             tokens_out=result.tokens_out,
@@ -334,15 +372,19 @@ class Runner:
             reason=verdict.reason,
             error=result.error,
         )
+        return annotate(row, trace.events)  # the error taxonomy and robot actions, from the trace
 
     # --- workers ---------------------------------------------------------------------------------
 
     async def worker(self, index: int, queue: asyncio.Queue[tuple[ModelSpec, int, int]]) -> None:
         """Take units off the queue until it is empty. A unit whose server broke goes on here, on a new
-        server over this worker's data directory (its memory), never on another worker's."""
+        server over this worker's data directory (its memory), never on another worker's (a fleet
+        that died is started again over its own)."""
         unit: tuple[ModelSpec, int, int] | None = None
         while unit is not None or not queue.empty():
             try:
+                if self.fleets is not None:
+                    await self.fleets.ensure(index)
                 async with connect(self.spec(index)) as robot:
                     while unit is not None or not queue.empty():
                         spec, trial, start = unit or queue.get_nowait()
@@ -404,9 +446,12 @@ async def run_eval(
     on_progress: Callable[[Progress], None] | None = None,
     on_error: Callable[[AttemptRow], None] | None = None,
     ray_address: str | None = None,
+    urls: Sequence[str] = (),
 ) -> list[AttemptRow]:
     """Run the study; returns every row of the results file. With `ray_address` (a cluster's
-    address, or "" for Ray's default), the units run as Ray actors (`robocog.agent.distributed`)."""
+    address, or "" for Ray's default), the units run as Ray actors (`robocog.agent.distributed`);
+    with `urls`, worker i drives a robot of the fleet server running at urls[i mod len(urls)]; else the
+    workers reach their robots as `config.isolation` says (a spawned server each, or spawned fleets)."""
     out.parent.mkdir(parents=True, exist_ok=True)
     rows = read_rows(out)
     if rows and not resume:
@@ -414,25 +459,42 @@ async def run_eval(
     mend_torn_tail(out)
     for spec in config.models:  # a missing key fails the study before any server starts
         check_credentials(spec.model, spec.api_base, resolve_api_key(spec))
-    runner = Runner(config, out, server_command)
-    # Which units are complete depends on the tasks' requirements: only the server knows them.
-    pending = plan_units(config, out, rows, await runner.requirements() if rows else {})
-    per_unit = config.memory_iterations * len(config.tasks)
-    runner.progress = Progress(total=len(pending) * per_unit, on_change=on_progress, on_error=on_error)
-    queue: asyncio.Queue[tuple[ModelSpec, int, int]] = asyncio.Queue()
-    for unit in pending:
-        queue.put_nowait(unit)
-    n = max(1, min(workers or config.workers, len(pending) or 1))
-    if pending and ray_address is not None:
-        from robocog.agent.distributed import run_on_ray
+    runner = Runner(config, out, server_command, urls=list(urls))
+    requested = workers or config.workers
+    fleets = None
+    if not urls and ray_address is None and config.isolation == "fleet":
+        fleets = Fleets(
+            requested,
+            runner.work_dir,
+            processes=config.fleet_processes,
+            server_command=server_command,
+            server_args=config.server_args,
+        )
+    async with contextlib.AsyncExitStack() as stack:
+        if fleets is not None:
+            # LiteLLM's import and first call (seconds) happen while the fleets start.
+            warming = asyncio.create_task(asyncio.to_thread(warm_up_litellm, [m.model for m in config.models]))
+            runner.fleets = await stack.enter_async_context(fleets)
+            runner.urls = fleets.urls
+            await warming
+        # Which units are complete depends on the tasks' requirements: only the server knows them.
+        pending = plan_units(config, out, rows, await runner.requirements() if rows else {})
+        per_unit = config.memory_iterations * len(config.tasks)
+        runner.progress = Progress(total=len(pending) * per_unit, on_change=on_progress, on_error=on_error)
+        queue: asyncio.Queue[tuple[ModelSpec, int, int]] = asyncio.Queue()
+        for unit in pending:
+            queue.put_nowait(unit)
+        n = max(1, min(requested, len(pending) or 1))
+        if pending and ray_address is not None:
+            from robocog.agent.distributed import run_on_ray
 
-        await run_on_ray(runner, queue, n, ray_address or None)
-    elif pending:
-        # LiteLLM's import and first call (seconds) happen while the servers start.
-        await asyncio.to_thread(warm_up_litellm, [m.model for m in config.models])
-        async with asyncio.TaskGroup() as tg:
-            for i in range(n):
-                tg.create_task(runner.worker(i, queue))
+            await run_on_ray(runner, queue, n, ray_address or None)
+        elif pending:
+            if fleets is None:  # LiteLLM's import and first call (seconds) happen while the servers start.
+                await asyncio.to_thread(warm_up_litellm, [m.model for m in config.models])
+            async with asyncio.TaskGroup() as tg:
+                for i in range(n):
+                    tg.create_task(runner.worker(i, queue))
     shutil.rmtree(runner.work_dir, ignore_errors=True)
     return read_rows(out)
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 import logging
 import time
 import uuid
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
@@ -25,9 +25,13 @@ from robocog.server.tools.base import Caller, Tool
 from robocog.server.world.tasks import task_catalogue
 from robocog.server.world.world import World
 from robocog.shared.results import ObjectPlacement, WorldState
+from robocog.shared.scene import scene_path
+from robocog.shared.suite import Instance, find_instance
 from robocog.shared.tasks import TaskSpec
 
 R = TypeVar("R", bound=BaseModel)
+#: Opens the episodic memory of a namespace (a fleet's robots share one per namespace: `server/fleet.py`).
+MemoryProvider = Callable[[str], EpisodicMemory]
 logger = logging.getLogger("robocog.server.session")
 
 
@@ -58,7 +62,12 @@ class RobotSession:
     """The robot, its episodic memory and scratchpad, and the current episode."""
 
     def __init__(
-        self, config: SessionConfig, *, world: World | None = None, memory: EpisodicMemory | None = None
+        self,
+        config: SessionConfig,
+        *,
+        world: World | None = None,
+        memory: EpisodicMemory | None = None,
+        memories: MemoryProvider | None = None,
     ) -> None:
         self.config = config
         self.memory_labels: MemoryLabels = config.memory_labels
@@ -66,7 +75,17 @@ class RobotSession:
         self.search_k = config.search_k
         options = {"randomize": True} if config.randomize else None
         self.world = world or World(config.scene, seed=config.seed, options=options, gui=config.gui)
+        #: The worlds by scene name: the session's own, and the last other scene a suite instance
+        #: switched to (built headless, kept while instances stay in it); `reset` without an instance
+        #: comes back to the session's own.
+        self._worlds: dict[str, World] = {self.world.scene.name: self.world}
+        self._home_scene = self.world.scene.name
+        #: The suite instance the world was last set up for (`begin_instance`), if any.
+        self.instance: Instance | None = None
         self._memory = memory
+        #: Where memories come from when they are shared (a fleet), and which namespace this robot uses.
+        self._memories = memories
+        self._namespace = config.namespace
         self.scratchpad = Scratchpad()
         self.tasks: dict[str, TaskSpec] = task_catalogue()
         self.caller = Caller()
@@ -77,10 +96,39 @@ class RobotSession:
         """The episodic memory, opened on first use (a session that never remembers needs no database)."""
         if self._memory is None:
             config = self.config
-            self._memory = EpisodicMemory(config.data_dir, url=config.memory_url, namespace=config.namespace)
+            if self._memories is not None:
+                self._memory = self._memories(self._namespace)
+            else:
+                self._memory = EpisodicMemory(config.data_dir, url=config.memory_url, namespace=self._namespace)
             where = f"the Chroma server at {config.memory_url}" if config.memory_url else "embedded ChromaDB"
-            logger.info("episodic memory: %s, namespace %r", where, config.namespace)
+            logger.info("episodic memory: %s, namespace %r", where, self._namespace)
         return self._memory
+
+    @property
+    def namespace(self) -> str:
+        """The memory namespace this robot reads and writes."""
+        return self._namespace
+
+    def use_namespace(self, namespace: str) -> None:
+        """Read and write the memory namespace `namespace` from now on (a harness gives each trial its
+        own, so trials sharing a server never mix); a ValueError names what a namespace may be."""
+        from robocog.server.memory.names import collection_name
+
+        collection_name(namespace)  # checks it
+        if namespace == self._namespace:
+            return
+        if self._memory is not None and self._memories is None:
+            self._memory.close()
+        self._memory = None
+        self._namespace = namespace
+
+    def recycle(self) -> None:
+        """Make this robot as good as new for its next driver (a fleet reuses robots): the world at
+        its start, a new episode, an empty scratchpad, the configured memory namespace and settings."""
+        self.use_namespace(self.config.namespace)
+        self.memory_labels = self.config.memory_labels
+        self.search_k = self.config.search_k
+        self.reset(seed=self.config.seed, options={"randomize": True} if self.config.randomize else None)
 
     def warm_up(self) -> None:
         """Open the memory and load the embedding model now (checksum, ONNX session, tokenizer), so the
@@ -91,8 +139,9 @@ class RobotSession:
         embed(["warm up"])
 
     def close(self) -> None:
-        self.world.close()
-        if self._memory is not None:
+        for world in self._worlds.values():
+            world.close()
+        if self._memory is not None and self._memories is None:  # shared memories are closed by their owner
             self._memory.close()
 
     # --- calls and episodes ------------------------------------------------------------------------
@@ -143,10 +192,43 @@ class RobotSession:
         return self.start_episode(task_id, keep_scratchpad=keep_scratchpad, episode_id=episode_id)
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> WorldState:
-        """Back to the start state and a new episode (episodic memory is kept: that is the point of it)."""
+        """Back to the start state (of the session's own scene, if an instance switched to another)
+        and a new episode (episodic memory is kept: that is the point of it)."""
+        self.instance = None
+        self.world = self._worlds[self._home_scene]
         state = self.world.reset(seed=seed, options=options)
         self.start_episode()
         return state
+
+    def begin_instance(self, suite: str, instance_id: str) -> WorldState:
+        """Set the world up for an instance of a suite (`robocog.shared.suite`): its scene (switching
+        worlds when it differs), reset with its seed, every graspable object on its start position;
+        its task and earlier tasks (ids ID-pre1, ...) join the catalogue; a new episode begins. A
+        ValueError (bad input) names an unknown suite or instance, or a start the scene cannot take."""
+        instance = find_instance(suite, instance_id)
+        name = instance.scene
+        if name not in self._worlds:
+            for other in [n for n in self._worlds if n != self._home_scene]:  # one guest world at a time (~45 MB)
+                self._worlds.pop(other).close()
+            self._worlds[name] = World(scene_path(name), seed=instance.seed)
+        self.world = self._worlds[name]
+        self.world.reset(seed=instance.seed)
+        sim = self.world.sim
+        for obj, start in instance.start.items():
+            body, spot = sim.objects.get(obj), sim.positions.get((start.location, start.position))
+            if body is None or spot is None:
+                raise ValueError(
+                    f"instance {instance.id}: scene {name!r} has no "
+                    + (f"object {obj!r}" if body is None else f"place position {start.location} / {start.position}")
+                )
+            sim.put_on(body, spot, 0.0)
+        sim.settle()
+        sim.steps = 0
+        for task in (instance.task(), *instance.prelude_tasks()):
+            self.tasks[task.id] = task
+        self.instance = instance
+        self.start_episode()
+        return self.world.state()
 
     def task(self, task_id: str) -> TaskSpec:
         """The task `task_id` of the catalogue; a ValueError (bad input) names the known ones."""

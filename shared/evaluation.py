@@ -48,18 +48,56 @@ class EvalConfig(BaseModel):
     memory_labels: Literal["believed", "verified"] = Field(
         default="believed", description="'believed' (the paper) or 'verified' (the ground truth labels memory)"
     )
-    workers: int = Field(default=1, ge=1, description="parallel workers, each with its own server")
+    workers: int = Field(default=1, ge=1, description="episodes in flight at once (parallel workers)")
+    isolation: Literal["process", "fleet"] = Field(
+        default="process",
+        description="'process': each worker spawns its own server over stdio; 'fleet': the workers share a few "
+        "fleet servers over HTTP (robocog-server --robots N), a robot each, far less memory per worker",
+    )
+    fleet_processes: int | None = Field(
+        default=None, ge=1, description="fleet servers to spawn for --isolation fleet (default: one per core)"
+    )
     max_invocations: int = Field(default=10, ge=1)
     max_steps: int = Field(default=60, ge=1)
     timeout_s: float = Field(default=180.0, gt=0)
     out: str | None = Field(default=None, description="results file (JSONL), relative to the config file")
     server_args: list[str] = Field(default=[], description="extra robocog-server arguments, e.g. --scene")
+    suite: str | None = Field(
+        default=None, description="a suite (e.g. robocog-v1): the instances of its split are the tasks, in file order"
+    )
+    split: str = Field(default="dev", description="the suite's split (dev or test)")
+    instances: int | None = Field(
+        default=None, ge=1, description="at most this many of the split's instances, spread over the families"
+    )
+    families: list[str] | None = Field(default=None, min_length=1, description="only these families of the suite")
 
     @model_validator(mode="after")
     def _unique_names(self) -> EvalConfig:
         names = [m.name for m in self.models]
         if len(set(names)) != len(names):
             raise ValueError(f"models: two models share a name ({names}); give them distinct labels")
+        return self
+
+    @model_validator(mode="after")
+    def _suite_tasks(self) -> EvalConfig:
+        """With a suite, the tasks are its selected instances' ids (`robocog.shared.suite.select`)."""
+        if self.suite is None:
+            if self.instances is not None or self.families is not None:
+                raise ValueError("suite: instances and families choose a suite's instances: give the suite")
+            return self
+        from robocog.shared.suite import load_families, load_split, select
+
+        known = load_families()
+        unknown = sorted(set(self.families or []) - set(known))
+        if unknown:
+            raise ValueError(f"families: no such family {unknown} (known: {sorted(known)})")
+        chosen = select(load_split(self.suite, self.split), families=self.families, limit=self.instances)
+        if not chosen:
+            raise ValueError(f"suite: {self.suite} / {self.split} has no instance of the families {self.families}")
+        ids = [i.id for i in chosen]
+        if "tasks" in self.model_fields_set and self.tasks != ids:  # (a config dumped and read back gives them)
+            raise ValueError("tasks: a study runs either tasks or a suite's instances, not both")
+        self.tasks = ids
         return self
 
 
@@ -83,7 +121,10 @@ class AttemptRow(BaseModel):
     )
     believed_success: bool | None = Field(description="end_task's status; None when the task was never ended")
     true_success: bool
-    agreement: bool = Field(description="believed success equals true success (a never-ended task believes nothing)")
+    agreement: bool = Field(
+        description="believed success equals whether the request was achieved (a never-ended task believes "
+        "nothing; an infeasible task's request is never achieved, so there only a claimed success disagrees)"
+    )
     stopped: bool = Field(description="the agent never called end_task within the invocations (a refusal)")
     tokens_in: int
     tokens_out: int
@@ -99,6 +140,22 @@ class AttemptRow(BaseModel):
     error: str | None = Field(default=None, description="the failure's class and message, when outcome is 'error'")
     study: str = ""
     model_id: str = Field(default="", description="the LiteLLM model string")
+    family: str | None = Field(
+        default=None, description="the suite family of the instance; None for the paper's tasks (reports use the task)"
+    )
+    instance: str | None = Field(default=None, description="the suite instance's id; None for the paper's tasks")
+    feasible: bool = Field(
+        default=True, description="the task can be done; on an infeasible one an honest failure is the success"
+    )
+    optimal_steps: int | None = Field(
+        default=None, description="robot actions (move_to, grab, place) in the planner's optimal plan, when known"
+    )
+    errors: dict[str, int] = Field(
+        default={}, description="the error taxonomy's counts from the attempt's trace (agent/taxonomy.py)"
+    )
+    robot_actions: int | None = Field(
+        default=None, description="the robot actions (move_to, grab, place calls) in the trace; efficiency's numerator"
+    )
 
     @model_validator(mode="before")
     @classmethod

@@ -42,7 +42,48 @@ class Swapped(_Strict):
     objects: tuple[str, str]
 
 
-Condition = Annotated[AtLocation | AtPosition | Swapped, Field(discriminator="kind")]
+class OnFurniture(_Strict):
+    """Each object rests on one of `positions`, the place positions a piece of furniture supports
+    (one object per position); `furniture` names it in the verdict."""
+
+    kind: Literal["on_furniture"] = "on_furniture"
+    objects: list[str] = Field(min_length=1)
+    furniture: str
+    positions: list[tuple[str, str]] = Field(min_length=1, description="(location, position) pairs")
+
+
+class AtPositions(_Strict):
+    """Each (object, location, position) of `targets` holds: a whole arrangement."""
+
+    kind: Literal["at_positions"] = "at_positions"
+    targets: list[tuple[str, str, str]] = Field(min_length=1, description="(object, location, position) triples")
+
+
+class Unchanged(_Strict):
+    """The objects rest where they rested when the task started (default: every object that rested
+    on a place position then)."""
+
+    kind: Literal["unchanged"] = "unchanged"
+    objects: list[str] = []
+
+
+class HonestFailure(_Strict):
+    """The episode ended with end_task reporting failure: the honest answer to a task that cannot be done."""
+
+    kind: Literal["honest_failure"] = "honest_failure"
+
+
+class WorldSane(_Strict):
+    """The robot's hand is empty and every object that rested on a place position when the task
+    started rests on one now (nothing dropped, nothing left in the hand)."""
+
+    kind: Literal["world_sane"] = "world_sane"
+
+
+Condition = Annotated[
+    AtLocation | AtPosition | Swapped | OnFurniture | AtPositions | Unchanged | HonestFailure | WorldSane,
+    Field(discriminator="kind"),
+]
 
 
 class TaskSpec(_Strict):

@@ -15,6 +15,7 @@ from robocog.server.tools.base import CONTROL, DESTRUCTIVE, Tool, at_most
 from robocog.server.world.tasks import evaluate
 from robocog.shared.limits import EPISODE_ID_CHARS, NAME_CHARS
 from robocog.shared.results import TaskVerdict, WorldState
+from robocog.shared.suite import DEFAULT_SUITE
 
 if TYPE_CHECKING:
     from robocog.server.session import RobotSession
@@ -26,6 +27,23 @@ TaskIdArg = Annotated[
     str,
     Field(description="A task id from robocog://tasks, e.g. 'T1'", min_length=1, max_length=NAME_CHARS),
     at_most(NAME_CHARS, "give a task id from robocog://tasks, e.g. 'T1'"),
+]
+InstanceArg = Annotated[
+    str | None,
+    Field(
+        description="An instance of the suite to set the world up for, e.g. 'dev-swap-003' "
+        "(assets/suites/SUITE/*.jsonl; `robocog suite list --split dev`)",
+        min_length=1,
+        max_length=NAME_CHARS,
+    ),
+    at_most(NAME_CHARS, "give an instance id from the suite's splits, e.g. 'dev-swap-003'"),
+]
+SuiteArg = Annotated[
+    str,
+    Field(
+        description=f"The suite the instance belongs to (default {DEFAULT_SUITE})", min_length=1, max_length=NAME_CHARS
+    ),
+    at_most(NAME_CHARS, f"give a suite's name, e.g. '{DEFAULT_SUITE}'"),
 ]
 EpisodeIdArg = Annotated[
     str | None,
@@ -68,10 +86,33 @@ def reset_world(
         int | None,
         Field(description="How many experiences search_memory returns from now on when k is not given", ge=1, le=20),
     ] = None,
+    memory_namespace: Annotated[
+        str | None,
+        Field(
+            description="The memory namespace this robot reads and writes from now on (letters, digits, '.', "
+            "'_', '-'), so trials sharing a server or a Chroma server never mix; default: the server's "
+            "--memory-namespace",
+            min_length=1,
+            max_length=NAME_CHARS,
+        ),
+        at_most(NAME_CHARS, "use a short namespace, e.g. 'study-trial-3'"),
+    ] = None,
+    instance: InstanceArg = None,
+    suite: SuiteArg = DEFAULT_SUITE,
 ) -> WorldState:
     """Put the world back to its start state and begin a new episode. Episodic memory is kept.
-    memory_labels and search_k, when given, hold from now on (until set again)."""
-    state = robot.reset(seed=seed, options={"randomize": randomize})
+    memory_labels, search_k and memory_namespace, when given, hold from now on (until set again).
+    With an instance of a suite: the world of the instance's scene, set to the instance's start
+    (seed and randomize do not apply), and the instance's task (and its earlier tasks, ID-pre1, ...)
+    can be begun and checked by id."""
+    if instance is not None and (seed is not None or randomize):
+        raise ValueError("give an instance, or a seed and randomize: an instance has its own seed and start")
+    if memory_namespace is not None:
+        robot.use_namespace(memory_namespace)
+    if instance is not None:
+        state = robot.begin_instance(suite, instance)
+    else:
+        state = robot.reset(seed=seed, options={"randomize": randomize})
     if memory_labels is not None:
         robot.memory_labels = memory_labels
     if search_k is not None:
@@ -108,7 +149,7 @@ def check_task(robot: RobotSession, task_id: TaskIdArg) -> TaskVerdict:
     was not begun for another task), the verdict is written into that episode's memory record,
     and into no other."""
     episode = robot.episode
-    verdict = evaluate(robot.task(task_id), robot.world.placements(), episode.baseline)
+    verdict = evaluate(robot.task(task_id), robot.world.placements(), episode.baseline, episode.report)
     same_task = episode.task_id is None or episode.task_id == task_id
     if episode.ended and episode.record_id is not None and same_task:
         try:

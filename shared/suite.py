@@ -1,0 +1,399 @@
+"""The robocog suite as data: task families (`assets/families/*.yaml`), the suite's manifest
+(`assets/suites/NAME/suite.yaml`) and its instances (`assets/suites/NAME/SPLIT.jsonl`).
+
+A family is a kind of task (put away, swap, bring, ...) in one or more *variants*. A variant names
+how its parameters are drawn from a scene and a start state (`draw`, one of `DRAWS`), and holds the
+prompt and the success conditions as templates over those parameters: in a prompt `{items}` is
+written out ("the mug, the box and the bottle"); in a success condition a field that is exactly
+`"{items}"` takes the parameter's value (a list stays a list). The generator (`robocog.agent.suite`)
+draws the parameters and a seeded random start, and writes one `Instance` per task: everything the
+server needs to set the world up and judge the outcome, and nothing that needs a scene to read.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from functools import cache
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError, model_validator
+
+from robocog.assets import ASSETS_DIR
+from robocog.shared.errors import ConfigError
+from robocog.shared.scene import load_yaml_model, validation_problems
+from robocog.shared.tasks import Condition, TaskSpec
+
+FAMILIES_DIR = ASSETS_DIR / "families"
+SUITES_DIR = ASSETS_DIR / "suites"
+DEFAULT_SUITE = "robocog-v1"
+
+Id = Annotated[str, Field(pattern=r"^[A-Za-z0-9_\-]+$", min_length=1, max_length=120)]
+
+#: How a variant's parameters are drawn, and the parameters each draw gives (the names its templates
+#: may use). The generator implements each (`robocog.agent.suite.DRAWS`).
+DRAWS: dict[str, tuple[str, ...]] = {
+    # k graspable items (`count`) that are not on a piece of furniture with at least k place positions
+    "items_to_furniture": ("items", "furniture", "positions"),
+    # one item more than a piece of furniture has place positions: cannot be done
+    "overfill_furniture": ("items", "furniture", "positions"),
+    # two graspable items, each on a place position
+    "pair": ("a", "b"),
+    # a graspable item and a location with place positions where it is not
+    "item_to_location": ("item", "location"),
+    # an object the robot cannot grasp, and a piece of furniture
+    "ungraspable_to_furniture": ("item", "furniture", "positions"),
+    # a name from `choices` that no object of the scene has, and a location
+    "absent_to_location": ("item", "location"),
+    # a graspable item named by one of its scene descriptions only it has ("the cup"), and a location
+    "description_to_location": ("description", "item", "location"),
+    # a graspable item named by the place position it starts on, and a location
+    "relation_to_location": ("item", "item_location", "item_position", "location"),
+    # `count` items whose target positions are their start positions rotated: one must be parked
+    "cycle": ("targets",),
+    # an item a first task moves to a location; the second asks for it back where it was
+    "put_back": ("item", "location", "home_location", "home_position"),
+}
+Draw = Literal[
+    "items_to_furniture",
+    "overfill_furniture",
+    "pair",
+    "item_to_location",
+    "ungraspable_to_furniture",
+    "absent_to_location",
+    "description_to_location",
+    "relation_to_location",
+    "cycle",
+    "put_back",
+]
+
+_CONDITIONS: TypeAdapter[list[Condition]] = TypeAdapter(list[Condition])
+_PLACEHOLDER = re.compile(r"\{([A-Za-z_]\w*)\}")
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+# --- rendering templates ---------------------------------------------------------------------------
+
+
+def phrase(value: Any) -> str:
+    """A parameter as the prompt writes it: a list of names "the a, the b and the c", a list of
+    (object, location, position) "the a on L P, the b on L P", anything else as it is."""
+    if isinstance(value, list | tuple) and value and all(isinstance(v, list | tuple) for v in value):
+        parts = [f"the {o} on {loc} {pos}" for o, loc, pos in value]
+        return ", ".join(parts)
+    if isinstance(value, list | tuple):
+        names = [f"the {v}" for v in value]
+        return names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1]
+    return str(value)
+
+
+def render_prompt(template: str, parameters: dict[str, Any]) -> str:
+    """The prompt `template` with each `{name}` written out (`phrase`)."""
+    return _PLACEHOLDER.sub(lambda m: phrase(parameters[m.group(1)]), template)
+
+
+def _fill(node: Any, parameters: dict[str, Any]) -> Any:
+    if isinstance(node, str):
+        whole = _PLACEHOLDER.fullmatch(node)
+        if whole:
+            return parameters[whole.group(1)]
+        return _PLACEHOLDER.sub(lambda m: str(parameters[m.group(1)]), node)
+    if isinstance(node, list):
+        return [_fill(v, parameters) for v in node]
+    if isinstance(node, dict):
+        return {k: _fill(v, parameters) for k, v in node.items()}
+    return node
+
+
+def render_success(template: list[dict[str, Any]], parameters: dict[str, Any]) -> list[Condition]:
+    """The success conditions of `template` with the parameters filled in, validated."""
+    return _CONDITIONS.validate_python(_fill(template, parameters))
+
+
+def _placeholders(node: Any) -> set[str]:
+    if isinstance(node, str):
+        return set(_PLACEHOLDER.findall(node))
+    if isinstance(node, list):
+        return set().union(*(_placeholders(v) for v in node)) if node else set()
+    if isinstance(node, dict):
+        return set().union(*(_placeholders(v) for v in node.values())) if node else set()
+    return set()
+
+
+#: Values of the right shape for every parameter, to check a variant's templates when it is loaded.
+_EXAMPLE: dict[str, Any] = {
+    "items": ["mug", "box"],
+    "furniture": "Kitchen Shelf",
+    "positions": [["Kitchen Shelf", "top"], ["Kitchen Shelf", "middle"]],
+    "a": "mug",
+    "b": "cube",
+    "item": "mug",
+    "location": "Front Door",
+    "description": "the drinking vessel",
+    "item_location": "Kitchen Shelf",
+    "item_position": "top",
+    "targets": [["mug", "Kitchen Shelf", "top"], ["cube", "Kitchen Shelf", "middle"]],
+    "home_location": "Kitchen Table",
+    "home_position": "middle",
+}
+
+
+# --- families --------------------------------------------------------------------------------------
+
+
+class StepTemplate(_Strict):
+    """An earlier task of a variant, run in the same world (memory kept) before the task itself."""
+
+    prompt: str = Field(min_length=1)
+    success: list[dict[str, Any]] = Field(min_length=1)
+
+
+class Variant(_Strict):
+    """One way a family's task is posed: how its parameters are drawn, its prompt and success."""
+
+    id: Id
+    draw: Draw
+    prompt: str = Field(min_length=1, description="the instruction, with {parameter} placeholders")
+    success: list[dict[str, Any]] = Field(min_length=1, description="success conditions, with placeholders")
+    feasible: bool = True
+    count: tuple[int, int] | None = Field(default=None, description="fewest and most items (items_to_furniture, cycle)")
+    choices: list[str] = Field(default=[], description="names to draw from (absent_to_location)")
+    prelude: list[StepTemplate] = Field(default=[], description="earlier tasks in the same world (put_back)")
+    example: str = Field(default="", description="an instance's prompt, for the README and `robocog suite list`")
+
+    @model_validator(mode="after")
+    def _templates(self) -> Variant:
+        known = set(DRAWS[self.draw])
+        parts: list[tuple[str, Any]] = [("prompt", self.prompt), ("success", self.success)]
+        for i, step in enumerate(self.prelude):
+            parts += [(f"prelude[{i}].prompt", step.prompt), (f"prelude[{i}].success", step.success)]
+        for where, node in parts:
+            unknown = sorted(_placeholders(node) - known)
+            if unknown:
+                raise ValueError(f"{where}: unknown parameter(s) {unknown}; draw {self.draw!r} gives {sorted(known)}")
+        for where, template in [("success", self.success)] + [
+            (f"prelude[{i}].success", s.success) for i, s in enumerate(self.prelude)
+        ]:
+            try:
+                render_success(template, _EXAMPLE)
+            except ValidationError as exc:
+                raise ValueError(f"{where}: {validation_problems(exc)}") from None
+        honest = any(c.get("kind") == "honest_failure" for c in self.success)
+        if honest == self.feasible:
+            raise ValueError(
+                "success: an infeasible variant's success is an honest_failure, and only an infeasible one's"
+            )
+        needs_count = self.draw in ("items_to_furniture", "cycle")
+        if needs_count != (self.count is not None):
+            raise ValueError(f"count: draw {self.draw!r} " + ("needs" if needs_count else "takes no") + " count")
+        if self.count is not None and not 1 <= self.count[0] <= self.count[1]:
+            raise ValueError(f"count: wants [fewest, most] with 1 <= fewest <= most, not {list(self.count)}")
+        if (self.draw == "absent_to_location") != bool(self.choices):
+            raise ValueError(
+                f"choices: draw {self.draw!r} " + ("needs" if not self.choices else "takes no") + " choices"
+            )
+        if (self.draw == "put_back") != bool(self.prelude):
+            raise ValueError("prelude: draw 'put_back' needs a prelude, and only it takes one")
+        return self
+
+
+class Family(_Strict):
+    """A kind of task, in one or more variants (`assets/families/ID.yaml`)."""
+
+    id: Id
+    title: str = Field(min_length=1)
+    description: str = Field(min_length=1, description="what the family measures")
+    variants: list[Variant] = Field(min_length=1)
+
+    @model_validator(mode="after")
+    def _unique(self) -> Family:
+        ids = [v.id for v in self.variants]
+        if len(set(ids)) != len(ids):
+            raise ValueError(f"variants: two variants share an id ({ids})")
+        return self
+
+    @property
+    def feasible(self) -> bool | None:
+        """True or False when every variant is, None when they differ."""
+        kinds = {v.feasible for v in self.variants}
+        return kinds.pop() if len(kinds) == 1 else None
+
+
+def load_family(path: Path) -> Family:
+    """One family file; its id must be its file's stem."""
+    family = load_yaml_model(path, Family)
+    if family.id != path.stem:
+        raise ConfigError(f"{path}: id: {family.id!r} must be the file's name ({path.stem!r})")
+    return family
+
+
+def load_families(directory: Path = FAMILIES_DIR) -> dict[str, Family]:
+    """Every family of `directory` (`*.yaml`), by id, in file-name order."""
+    return {f.id: f for f in (load_family(p) for p in sorted(directory.glob("*.yaml")))}
+
+
+# --- instances -------------------------------------------------------------------------------------
+
+
+class StartPlacement(_Strict):
+    """Where an object starts: on a place position."""
+
+    location: str
+    position: str
+
+
+class Step(_Strict):
+    """An earlier task of an instance, run in the same world before it (memory kept)."""
+
+    prompt: str
+    success: list[Condition] = Field(min_length=1)
+
+
+class Instance(_Strict):
+    """One task of the suite: its world (scene and start), its prompt and how it is judged."""
+
+    id: Id
+    split: str
+    family: str
+    variant: str
+    scene: str = Field(description="a scene's name: assets/scenes/NAME.yaml")
+    seed: int = Field(description="the world's seed for this instance")
+    prompt: str = Field(min_length=1)
+    parameters: dict[str, Any]
+    start: dict[str, StartPlacement] = Field(description="every graspable object's start place position")
+    success: list[Condition] = Field(min_length=1)
+    feasible: bool
+    optimal_steps: int = Field(ge=0, description="robot actions (move_to, grab, place) of an optimal plan")
+    prelude: list[Step] = Field(default=[], description="earlier tasks run first in the same world")
+
+    def task(self) -> TaskSpec:
+        """The instance as a task the server can begin and check."""
+        return TaskSpec(id=self.id, title=f"{self.family} ({self.variant})", prompt=self.prompt, success=self.success)
+
+    def prelude_tasks(self) -> list[TaskSpec]:
+        """The earlier tasks as tasks (ids `ID-pre1`, `ID-pre2`, ...)."""
+        return [
+            TaskSpec(
+                id=f"{self.id}-pre{i}", title=f"{self.family}: earlier task {i}", prompt=s.prompt, success=s.success
+            )
+            for i, s in enumerate(self.prelude, 1)
+        ]
+
+
+class SplitSpec(_Strict):
+    """How a split is generated."""
+
+    seed: int
+    per_family: int = Field(ge=1, description="instances of each family")
+
+
+class Suite(_Strict):
+    """A suite's manifest (`assets/suites/NAME/suite.yaml`): which families over which scenes, and the splits."""
+
+    name: Id
+    description: str = ""
+    families: list[Id] = Field(min_length=1)
+    scenes: list[str] = Field(min_length=1, description="scene names (assets/scenes/NAME.yaml)")
+    splits: dict[Id, SplitSpec] = Field(min_length=1)
+
+    @model_validator(mode="after")
+    def _unique(self) -> Suite:
+        for what, names in (("families", self.families), ("scenes", self.scenes)):
+            if len(set(names)) != len(names):
+                raise ValueError(f"{what}: listed twice: {sorted({n for n in names if names.count(n) > 1})}")
+        return self
+
+
+def suite_dir(name: str) -> Path:
+    """The directory of the suite `name` (a name under assets/suites, or a directory)."""
+    path = Path(name)
+    return path if path.is_dir() and (path / "suite.yaml").exists() else SUITES_DIR / name
+
+
+def load_suite(name: str = DEFAULT_SUITE) -> Suite:
+    """The manifest of the suite `name`; its families must exist."""
+    path = suite_dir(name) / "suite.yaml"
+    suite = load_yaml_model(path, Suite)
+    families = load_families()
+    missing = [f for f in suite.families if f not in families]
+    if missing:
+        raise ConfigError(f"{path}: families: no such family {missing} (known: {sorted(families)})")
+    return suite
+
+
+def parse_instances(text: str, where: str) -> list[Instance]:
+    """The instances of a JSONL text; `ConfigError` names the line and the problem."""
+    out: list[Instance] = []
+    seen: set[str] = set()
+    for number, line in enumerate(text.splitlines(), 1):
+        if not line.strip():
+            continue
+        try:
+            instance = Instance.model_validate(json.loads(line))
+        except json.JSONDecodeError as exc:
+            raise ConfigError(f"{where}: line {number}: not JSON: {exc.msg}") from None
+        except ValidationError as exc:
+            raise ConfigError(f"{where}: line {number}: {validation_problems(exc)}") from None
+        if instance.id in seen:
+            raise ConfigError(f"{where}: line {number}: instance id {instance.id!r} is listed twice")
+        seen.add(instance.id)
+        out.append(instance)
+    return out
+
+
+def dump_instances(instances: list[Instance]) -> str:
+    """Instances as JSONL: one compact line each, keys in schema order (byte-stable)."""
+    return "".join(i.model_dump_json(exclude_defaults=False) + "\n" for i in instances)
+
+
+@cache
+def _split(directory: Path, split: str) -> tuple[Instance, ...]:
+    path = directory / f"{split}.jsonl"
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ConfigError(f"{path}: no such split") from None
+    return tuple(parse_instances(text, str(path)))
+
+
+def load_split(suite: str = DEFAULT_SUITE, split: str = "dev") -> list[Instance]:
+    """The instances of one split of a suite, in file order."""
+    return list(_split(suite_dir(suite), split))
+
+
+def find_instance(suite: str, instance_id: str) -> Instance:
+    """The instance `instance_id` of any split of the shipped suite `suite` (a name under
+    assets/suites, never a path: the server looks instances up for its clients); a ValueError names
+    what is known."""
+    directory = SUITES_DIR / suite
+    if not re.fullmatch(r"[A-Za-z0-9_\-]+", suite) or not (directory / "suite.yaml").exists():
+        known = sorted(p.name for p in SUITES_DIR.iterdir() if (p / "suite.yaml").exists())
+        raise ValueError(f"unknown suite {suite!r}; known suites: {', '.join(known)}")
+    splits = sorted(p.stem for p in directory.glob("*.jsonl"))
+    for split in splits:
+        for instance in _split(directory, split):
+            if instance.id == instance_id:
+                return instance
+    raise ValueError(f"suite {suite!r} has no instance {instance_id!r} (splits: {', '.join(splits)})")
+
+
+def select(instances: list[Instance], *, families: list[str] | None = None, limit: int | None = None) -> list[Instance]:
+    """The instances of `families` (default: all), at most `limit` of them, spread over the families
+    (round robin in file order), so a small sample still covers every family."""
+    chosen = [i for i in instances if families is None or i.family in families]
+    if limit is None or limit >= len(chosen):
+        return chosen
+    by_family: dict[str, list[Instance]] = {}
+    for i in chosen:
+        by_family.setdefault(i.family, []).append(i)
+    out: list[Instance] = []
+    queues = list(by_family.values())
+    while len(out) < limit:
+        for q in queues:
+            if q and len(out) < limit:
+                out.append(q.pop(0))
+    return sorted(out, key=chosen.index)
