@@ -3,28 +3,33 @@
 - Which protocol produced the results (`paper` or `robocog`, from the rows). A file mixing both is
   reported with each model once per protocol ("gpt-4.1 (paper)", "gpt-4.1 (robocog)").
 - Errored attempts (the model service or the server failed) first, per model and task; every
-  number after them leaves them out.
+  number after them leaves them out, but the per-family scores (which count them as failures).
 - Success per model and task with Wilson 95% intervals (the paper's Tables I and II).
 - Believed against actual success: the paper's Fig. 3 (row percentages of the ground truth,
   stopped attempts left out) and our counts (a task never ended counts as believed failure).
 - Success and tool calls against the memory iteration: the paper's Figs. 4 (bars) and 5 (boxes),
   and ours with 95% intervals.
 - pass^k: the chance that k independent trials all succeed, averaged over memory iterations.
+- Per family (a suite family, or the task for T1/T2): success, honesty, efficiency, pass^k with
+  bootstrap intervals, every attempt counted (`robocog.agent.suite_scores`); the capability profile
+  (a radar, three or more families); the error taxonomy's counts (`robocog.agent.taxonomy`).
 - Tokens, cost and latency per model and task.
-Outputs `report.md` (tables, with the PNG figures embedded), the figures, `summary.json`, and
-`results.csv`: our columns and values, or (`csv="upstream"`) the published implementation's
-encoding. The numbers come from `robocog.agent.stats`, the figures from `robocog.agent.figures`.
+Outputs `report.md` (tables, with the PNG figures embedded), the figures, `summary.json`,
+`families.csv` (the per-family scores), and `results.csv`: our columns and values, or
+(`csv="upstream"`) the published implementation's encoding. The numbers come from
+`robocog.agent.stats` and `robocog.agent.suite_scores`, the figures from `robocog.agent.figures`.
 """
 
 from __future__ import annotations
 
 import json
 import math
+from collections.abc import Sequence
 from pathlib import Path
 
 from robocog.agent.confusion import Confusion, PaperConfusion, confusion, paper_confusion
-from robocog.agent.figures import FigureFiles, draw_figures
-from robocog.agent.report_csv import CsvFormat, write_csv, write_upstream_csv
+from robocog.agent.figures import FigureFiles, draw_capability, draw_figures
+from robocog.agent.report_csv import CsvFormat, write_csv, write_family_csv, write_upstream_csv
 from robocog.agent.stats import (
     PASS_KS,
     Cell,
@@ -37,7 +42,10 @@ from robocog.agent.stats import (
     summarise,
     wilson,
 )
+from robocog.agent.suite_scores import TABLE_K, FamilyRow, family_scores
+from robocog.agent.taxonomy import CATEGORIES, annotate
 from robocog.shared.evaluation import AttemptRow
+from robocog.shared.trace import read_trace
 
 # The statistics stay importable from here, where they used to live.
 __all__ = [
@@ -48,6 +56,7 @@ __all__ = [
     "PaperConfusion",
     "Summary",
     "TableRow",
+    "by_family",
     "confusion",
     "load_rows",
     "markdown",
@@ -57,6 +66,7 @@ __all__ = [
     "render",
     "summarise",
     "wilson",
+    "with_taxonomy",
 ]
 
 _PROTOCOLS = {
@@ -267,6 +277,94 @@ def _consistency(summary: Summary) -> list[str]:
     ]
 
 
+def _ratio(rate: float | None, hits: int, n: int) -> str:
+    return "n/a" if rate is None else f"{_pct(rate)} ({hits}/{n})"
+
+
+def _pass(score: FamilyRow, k: int) -> str:
+    if k not in score.pass_k:
+        return "n/a"
+    lo, hi = score.pass_k_ci[k]
+    return f"{_pct(score.pass_k[k])} ({_pct(lo)} – {_pct(hi)})"
+
+
+def _families(scores: Sequence[FamilyRow], capability: str | None) -> list[str]:
+    """The per-family table, the capability profile and the error taxonomy."""
+    lines = [
+        [
+            _cell(s.model),
+            _cell(s.family),
+            str(s.attempts),
+            str(s.errored),
+            f"{_pct(s.success)} ({_pct(s.success_ci[0])} – {_pct(s.success_ci[1])})",
+            _pass(s, TABLE_K),
+            str(s.claims),
+            _ratio(s.false_success_rate, s.false_successes, s.failures),
+            _ratio(s.honest_failure_rate, s.honest_failures, s.infeasible),
+            "n/a" if s.efficiency is None else f"{s.efficiency:.2f} (n = {s.efficiency_n})",
+        ]
+        for s in scores
+    ]
+    figure = (
+        [f"![capability profile]({capability})", ""]
+        if capability
+        else ["(The capability profile is drawn for three or more families.)", ""]
+    )
+    return [
+        "## Per family",
+        "",
+        "A family is a suite task family, or the task for the paper's T1 and T2. Unlike the tables above, "
+        "**every attempt counts here, errored ones as failures** (the `errored` column says how many), and "
+        "on an infeasible family the success is the honest failure (above, its request is never achieved). "
+        "False success: a success claim whose goal was not achieved, over the attempts whose goal was not "
+        "achieved (every attempt on an infeasible task is one). Honest failure: on infeasible tasks, "
+        'end_task("failure") with the world left sane. Efficiency: robot actions (move_to, grab, place) '
+        "over the planner's optimal plan, for the attempts that achieved the goal (1.00 is optimal). "
+        f"pass^{TABLE_K}: the chance that {TABLE_K} trials of an instance all succeed, with a 95% bootstrap "
+        "interval (`families.csv` has every k).",
+        "",
+        *figure,
+        _md_table(
+            [
+                "model",
+                "family",
+                "n",
+                "errored",
+                "success (95% CI)",
+                f"pass^{TABLE_K} (95% CI)",
+                "claimed success",
+                "false-success rate",
+                "honest failure",
+                "efficiency",
+            ],
+            lines,
+        ),
+        "",
+        "### Error taxonomy",
+        "",
+        *_taxonomy(scores),
+    ]
+
+
+def _taxonomy(scores: Sequence[FamilyRow]) -> list[str]:
+    measured = [c for c in CATEGORIES if any(c in s.errors for s in scores)]
+    if not measured:
+        return ["No attempt carries the error taxonomy (its rows predate it and their traces are not at hand).", ""]
+    taxonomy = [
+        [_cell(s.model), _cell(s.family), str(s.attempts), *[str(s.errors.get(c, "n/a")) for c in measured]]
+        for s in scores
+    ]
+    return [
+        "Counted from each attempt's trace (`robocog.agent.taxonomy`): malformed calls (parse), names not in "
+        "the scene (hallucination), actions the world's state does not afford (affordance), actions before "
+        "their precondition was met (wrong order), plans ended with the goal unmet (missing step), robot "
+        "actions beyond the optimal plan (additional step; n/a where the optimum is unknown).",
+        "",
+        _md_table(["model", "family", "n", *[c.replace("_", " ") for c in measured]], taxonomy),
+        "",
+    ]
+
+
 def _cost(summary: Summary, csv_format: CsvFormat) -> list[str]:
     header = [
         "model",
@@ -308,8 +406,17 @@ def _cost(summary: Summary, csv_format: CsvFormat) -> list[str]:
     ]
 
 
-def markdown(summary: Summary, figures: FigureFiles | None, *, title: str, csv_format: CsvFormat = "ours") -> str:
-    """The text of report.md (`figures` is None when no attempt counts: then only the errors)."""
+def markdown(
+    summary: Summary,
+    figures: FigureFiles | None,
+    *,
+    title: str,
+    csv_format: CsvFormat = "ours",
+    scores: Sequence[FamilyRow] = (),
+    capability: str | None = None,
+) -> str:
+    """The text of report.md (`figures` is None when no attempt counts: then only the errors); the
+    per-family section when `scores` are given, with the `capability` figure when drawn."""
     parts = [f"# {title}", ""]
     parts += _protocol(summary)
     parts += _errored(summary)
@@ -327,6 +434,8 @@ def markdown(summary: Summary, figures: FigureFiles | None, *, title: str, csv_f
     parts += _belief(summary, figures)
     parts += _memory(summary, figures)
     parts += _consistency(summary)
+    if scores:
+        parts += _families(scores, capability)
     parts += _cost(summary, csv_format)
     return "\n".join(parts)
 
@@ -338,28 +447,73 @@ def render(
     title: str = "robocog evaluation",
     csv_format: CsvFormat = "ours",
 ) -> Path:
-    """Write report.md, the figures, summary.json and results.csv into `out`; returns report.md.
-    Rows of several protocols are reported per protocol (`by_protocol`)."""
+    """Write report.md, the figures, summary.json, results.csv and families.csv into `out`; returns
+    report.md. Rows of several protocols are reported per protocol (`by_protocol`); the paper-style
+    sections show a suite instance's row under its family (`by_family`), the per-family section
+    scores the instances."""
     if not rows:
         raise ValueError("the results file holds no attempts")
     rows = by_protocol(rows)
     out.mkdir(parents=True, exist_ok=True)
-    summary = summarise(rows)
-    (out / "summary.json").write_text(json.dumps(summary.as_json(), indent=2), encoding="utf-8")
+    summary = summarise(by_family(rows))
+    scores = family_scores(rows)
+    data = summary.as_json()
+    data["families"] = [s.as_json() for s in scores]
+    (out / "summary.json").write_text(json.dumps(data, indent=2), encoding="utf-8")
     if csv_format == "upstream":
         write_upstream_csv(rows, out / "results.csv")
     else:
         write_csv(rows, out / "results.csv")
+    write_family_csv(scores, out / "families.csv")
     figures = draw_figures(summary, out) if summary.table else None
+    capability = draw_capability(scores, out) if summary.table else None
     report = out / "report.md"
-    report.write_text(markdown(summary, figures, title=title, csv_format=csv_format), encoding="utf-8")
+    text = markdown(summary, figures, title=title, csv_format=csv_format, scores=scores, capability=capability)
+    report.write_text(text, encoding="utf-8")
     return report
 
 
+def by_family(rows: list[AttemptRow]) -> list[AttemptRow]:
+    """The rows as the paper-style sections show them: a suite instance's row as its family's task (a
+    suite has hundreds of instances: one section per family), T1 and T2 as they are. Those sections
+    judge the request itself, believed against achieved: an infeasible task's request is never
+    achieved (its honest failure is the per-family table's success), so a success claimed there is a
+    hallucinated one and an honest failure agrees with the truth."""
+    out = []
+    for r in rows:
+        if not r.family:
+            out.append(r)
+            continue
+        update: dict[str, object] = {"task": r.family}
+        if not r.feasible:
+            update.update(true_success=False, agreement=r.believed_success is not True)
+        out.append(r.model_copy(update=update))
+    return out
+
+
 def load_rows(path: Path) -> list[AttemptRow]:
-    """The attempts of a results file written by `robocog eval`."""
+    """The attempts of a results file written by `robocog eval` (rows written before the error
+    taxonomy get it from their traces, where those are at hand: `with_taxonomy`)."""
     from robocog.agent.evaluation import read_rows
 
     if not path.exists():
         raise FileNotFoundError(f"{path}: no such results file")
-    return read_rows(path)
+    return with_taxonomy(read_rows(path), path.parent)
+
+
+def with_taxonomy(rows: list[AttemptRow], base: Path) -> list[AttemptRow]:
+    """Rows without the taxonomy's counts get them (and their robot actions) from their trace file,
+    relative to `base`, when it exists and reads; errored attempts and other rows stay as they are."""
+    out = []
+    for r in rows:
+        trace = base / r.trace if r.trace else None
+        if r.errors or r.outcome == "error" or trace is None or not trace.is_file():
+            out.append(r)
+            continue
+        try:
+            events = read_trace(trace)
+        except (OSError, ValueError):  # a torn or foreign trace: the row keeps what it has
+            out.append(r)
+            continue
+        out.append(annotate(r, events))
+    return out
