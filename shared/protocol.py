@@ -29,4 +29,4 @@ VISION_TOOLS = frozenset({"look"})
 
 #: The version of the published MCP contract (assets/contract/, CHANGELOG.md there). The server announces
 #: it in its instructions as "MCP contract X.Y"; `robocog contract` reads it back from there.
-CONTRACT_VERSION = "2.0"
+CONTRACT_VERSION = "2.1"
