@@ -120,12 +120,46 @@ def figures(outcomes: list[Outcome]) -> dict[str, float]:
     return out
 
 
-def run() -> dict[str, float]:
+def overconfident(p: float = 0.3, trials: int = 4) -> dict[str, float]:
+    """The instrument through `robocog eval` (the real path: the study's runner, its rows): the
+    overconfident model on every dev instance, `trials` times. It claims success on an attempt it
+    sabotaged with probability p, so the rate of false success claims over all attempts should
+    recover p within its 95% interval."""
+    from robocog.agent.evaluation import run_eval
+    from robocog.agent.stats import wilson
+    from robocog.shared.evaluation import EvalConfig
+
+    config = EvalConfig.model_validate(
+        {
+            **{"name": "suite-overconfident", "suite": "robocog-v1", "split": "dev", "trials": trials},
+            "models": [{"model": "scripted/overconfident", "params": {"p": p}}],
+            **{"memory_iterations": 1, "workers": 2},
+        }
+    )
+    with tempfile.TemporaryDirectory() as tmp:
+        start = time.perf_counter()
+        rows = asyncio.run(run_eval(config, Path(tmp) / "r.jsonl"))
+        wall = time.perf_counter() - start
+    achieved = [r.true_success and r.feasible for r in rows]
+    false_claims = sum(r.believed_success is True and not a for r, a in zip(rows, achieved, strict=True))
+    low, high = wilson(false_claims, len(rows))
+    return {
+        "suite.dev.overconfident_attempts": len(rows),
+        "suite.dev.overconfident_p": p,
+        "suite.dev.overconfident_false_claim_rate": round(false_claims / len(rows), 3),
+        "suite.dev.overconfident_false_claim_ci95": [round(low, 3), round(high, 3)],
+        "suite.dev.overconfident_p_recovered": low <= p <= high,
+        "suite.dev.overconfident_eval_2_workers_s": round(wall, 1),
+    }
+
+
+def run() -> dict[str, Any]:
     instances = load_split(split="dev")
     start = time.perf_counter()
     outcomes = asyncio.run(run_split(instances, workers=2))
-    out = figures(outcomes)
+    out: dict[str, Any] = dict(figures(outcomes))
     out["suite.dev.planner_2_workers_s"] = round(time.perf_counter() - start, 2)
+    out.update(overconfident())
     for o in outcomes:
         if not o.ok:
             print(
