@@ -500,10 +500,10 @@ async def run_eval(
 
 
 def summary_line(rows: list[AttemptRow]) -> str:
-    """True successes per model and task, on one line."""
+    """True successes per model and task (per family for a suite's instances), on one line."""
     by: dict[tuple[str, str], list[AttemptRow]] = {}
     for r in rows:
-        by.setdefault((r.model, r.task), []).append(r)
+        by.setdefault((r.model, r.family or r.task), []).append(r)
     parts = []
     for (model, task), group in sorted(by.items()):
         counted = [r for r in group if r.outcome != "error"]
