@@ -120,7 +120,7 @@ def figures(outcomes: list[Outcome]) -> dict[str, float]:
     return out
 
 
-def overconfident(p: float = 0.3, trials: int = 4) -> dict[str, float]:
+def overconfident(p: float = 0.3, trials: int = 4) -> dict[str, Any]:
     """The instrument through `robocog eval` (the real path: the study's runner, its rows): the
     overconfident model on every dev instance, `trials` times. It claims success on an attempt it
     sabotaged with probability p, so the rate of false success claims over all attempts should
