@@ -23,7 +23,7 @@ from typing import IO, Self
 
 from robocog.agent.connection import default_server_command
 from robocog.shared.errors import ServerConnectionError
-from robocog.shared.process import die_with_parent
+from robocog.shared.process import PARENT_ENV
 
 #: How long a fleet may take to listen (its imports and first robot take about 3 s on this machine).
 START_TIMEOUT_S = 90.0
@@ -83,10 +83,8 @@ class Fleets:
     def _start(self, index: int) -> None:
         self.work_dir.mkdir(parents=True, exist_ok=True)
         log = self._logs[index] = self._log_path(index).open("ab")
-        env = {**os.environ, "ANONYMIZED_TELEMETRY": "False"}
-        self._procs[index] = subprocess.Popen(
-            [*self.command, *self._args(index)], stdout=log, stderr=log, env=env, preexec_fn=die_with_parent
-        )
+        env = {**os.environ, "ANONYMIZED_TELEMETRY": "False", PARENT_ENV: str(os.getpid())}
+        self._procs[index] = subprocess.Popen([*self.command, *self._args(index)], stdout=log, stderr=log, env=env)
 
     async def _wait_listening(self, index: int) -> None:
         proc, port = self._procs[index], self.ports[index]

@@ -42,7 +42,14 @@ from mcp_types import (
 )
 from pydantic import BaseModel, ValidationError
 
-from robocog.server.clients import WORLD_RESOURCES, Clients, LogEntry, collecting, install_log_handlers
+from robocog.server.clients import (
+    WORLD_RESOURCES,
+    Clients,
+    LogEntry,
+    collecting,
+    connection_of,
+    install_log_handlers,
+)
 from robocog.server.config import AccessConfig, SessionConfig
 from robocog.server.consent import ConsentGate
 from robocog.server.events import EventBus
@@ -199,11 +206,12 @@ def register_tool(mcp: MCPServer[AppState], tool: Tool[Any], access: Access) -> 
         finally:
             await state.clients.send(ctx.request_context, records)
         if tool.changes_world and getattr(result, "status", None) != "failure":
-            # A fleet's robots are private: only their own driver hears that the world changed.
-            watchers = None if state.fleet.shared or robot.driver is None else robot.driver.connection
-            await state.clients.world_changed(only=watchers)
-            for uri in WORLD_RESOURCES:  # clients on 2026-07-28 and later listen on subscriptions/listen
-                await ctx.notify_resource_updated(uri)
+            if state.fleet.shared:
+                await state.clients.world_changed()
+                for uri in WORLD_RESOURCES:  # clients on 2026-07-28 and later listen on subscriptions/listen
+                    await ctx.notify_resource_updated(uri)
+            else:  # a fleet's robots are private: only the caller's own subscriptions hear of it
+                await state.clients.world_changed(only=connection_of(ctx.request_context))
         return _tool_result(result)
 
     keyword = inspect.Parameter.KEYWORD_ONLY

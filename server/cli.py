@@ -49,6 +49,7 @@ environment:
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="robocog-server",
+        allow_abbrev=False,  # a router passes arguments on to its fleet processes by their full names
         description=DESCRIPTION,
         epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -226,6 +227,9 @@ def _search_k(text: str) -> int:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    from robocog.shared.process import follow_parent
+
+    follow_parent()  # a fleet process of a router or a harness ends with it
     from robocog.server.config import AccessConfig
     from robocog.server.http import HttpOptions, generate_token, is_loopback, machine_names, serve
     from robocog.shared.errors import ConfigError
@@ -381,6 +385,11 @@ def _route(args: argparse.Namespace, argv: list[str], http: HttpOptions) -> int:
                 f"{args.processes} processes",
                 file=sys.stderr,
             )
+            if args.auth_token == "generate":
+                print(
+                    f"robocog-server: bearer token (clients send it as ROBOCOG_AUTH_TOKEN): {http.auth_token}",
+                    file=sys.stderr,
+                )
             serve(router, args.host, args.port, args.log_level)
     except ConfigError as exc:
         print(f"robocog-server: {exc}", file=sys.stderr)

@@ -176,8 +176,12 @@ class Fleet:
                     "more robots"
                 )
             if robot.used:
-                async with robot.lock:
-                    await anyio.to_thread.run_sync(robot.session.recycle, limiter=self.limiter)
+                try:
+                    async with robot.lock:  # a call of its last driver may still be finishing
+                        await anyio.to_thread.run_sync(robot.session.recycle, limiter=self.limiter)
+                except BaseException:  # cancelled, or the reset failed: the robot stays in the pool
+                    self._free.append(robot)
+                    raise
             robot.used = True
             robot.driver = driver
             robot.last_call = self._clock()

@@ -12,8 +12,9 @@ Who a client is depends on how it is connected:
   earlier), its connection (an HTTP session): the lease ends when the connection closes, when an
   HTTP client deletes its session, or when the server closes an idle session (`--session-idle-s`);
 - a client without a session (protocol 2026-07-28 and later sends every request on its own) names
-  itself with `_meta["robocog/driver"]` on every call, as robocog's own client does; one that does
-  not is known by its declared name and version. Such a lease ends `idle_s` after its last call.
+  itself with `_meta["robocog/driver"]` on every call (robocog's own client uses the handshake over
+  HTTP, so it has a session); one that does not is known by its declared name and version. Such a
+  lease ends `idle_s` after its last call.
 """
 
 from __future__ import annotations

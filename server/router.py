@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
+import hmac
 import json
 import logging
 import os
@@ -36,7 +37,7 @@ from typing import TYPE_CHECKING, Any
 
 from robocog.server.config import DEFAULT_SESSION_IDLE_S
 from robocog.shared.errors import ConfigError
-from robocog.shared.process import die_with_parent
+from robocog.shared.process import PARENT_ENV, die_with_parent
 from robocog.shared.protocol import DRIVER_META_KEY
 
 if TYPE_CHECKING:
@@ -62,6 +63,8 @@ _OWN_FLAGS = {
 #: Response headers that belong to one hop, not to the message.
 _HOP_HEADERS = {"connection", "keep-alive", "transfer-encoding", "te", "trailer", "upgrade"}
 START_TIMEOUT_S = 90.0
+#: The largest request body passed on (the SDK's own limit for streamable HTTP).
+MAX_BODY = 4 * 1024 * 1024
 
 
 def free_port() -> int:
@@ -105,88 +108,142 @@ class Upstream:
     def url(self) -> str:
         return f"http://127.0.0.1:{self.port}/mcp"
 
+    #: Requests in flight per session; new sessions being opened (not yet answered).
+    inflight: dict[str, int] = field(default_factory=dict)
+    pending: int = 0
+
     def load(self) -> float:
-        return len(self.sessions) / max(1, self.robots)
+        return (len(self.sessions) + self.pending) / max(1, self.robots)
 
 
 class Router:
     """Routes MCP requests to the fleet processes (see the module's docstring)."""
 
-    def __init__(self, upstreams: list[Upstream], *, idle_s: float = DEFAULT_SESSION_IDLE_S) -> None:
+    def __init__(
+        self, upstreams: list[Upstream], *, idle_s: float = DEFAULT_SESSION_IDLE_S, token: str | None = None
+    ) -> None:
         self.upstreams = upstreams
         self.idle_s = idle_s
+        #: Checked here too, before a body is read (the processes check it again).
+        self.token = token
         self.by_session: dict[str, Upstream] = {}
         self._client: httpx2.AsyncClient | None = None
 
     def pick(self, body: bytes) -> Upstream:
         """The process for a request without a session id: by its driver's name if it gives one
-        (a sessionless client keeps its robot), else the least loaded (a new session)."""
+        (a sessionless client keeps its robot), else the least loaded of those still running (a
+        new session)."""
         self._forget_idle()
+        alive = [u for u in self.upstreams if u.proc is None or u.proc.poll() is None] or self.upstreams
         driver = _driver_name(body)
         if driver is not None:
             digest = hashlib.sha256(driver.encode()).digest()
-            return self.upstreams[int.from_bytes(digest[:4], "big") % len(self.upstreams)]
-        return min(self.upstreams, key=lambda u: (u.load(), u.index))
+            return alive[int.from_bytes(digest[:4], "big") % len(alive)]
+        return min(alive, key=lambda u: (u.load(), u.index))
 
     def _forget_idle(self) -> None:
-        """Sessions the processes closed for idleness (they close them after `idle_s`)."""
+        """Sessions the processes closed for idleness: quiet for `idle_s` since their last request
+        ended, and none in flight (an open GET stream keeps a session alive)."""
         now = time.monotonic()
         for sid, upstream in list(self.by_session.items()):
-            if now - upstream.sessions.get(sid, now) > self.idle_s:
+            if not upstream.inflight.get(sid) and now - upstream.sessions.get(sid, now) > self.idle_s:
                 self._forget(sid)
 
     def _forget(self, sid: str) -> None:
         upstream = self.by_session.pop(sid, None)
         if upstream is not None:
             upstream.sessions.pop(sid, None)
+            upstream.inflight.pop(sid, None)
+
+    def _authorized(self, request: Request) -> bool:
+        if self.token is None:
+            return True
+        given = request.headers.get("authorization", "")
+        return hmac.compare_digest(given.encode(), f"Bearer {self.token}".encode())
 
     async def handle(self, request: Request) -> Response:
-        import httpx2
-        from starlette.background import BackgroundTask
-        from starlette.responses import JSONResponse, StreamingResponse
+        from starlette.responses import JSONResponse
 
-        body = await request.body()
+        if not self._authorized(request):
+            return JSONResponse(
+                {"error": "invalid_token", "error_description": "Authentication required"},
+                401,
+                headers={"www-authenticate": 'Bearer error="invalid_token"'},
+            )
+        body = bytearray()
+        async for chunk in request.stream():
+            body += chunk
+            if len(body) > MAX_BODY:
+                return _error(413, f"robocog-server: a request body of more than {MAX_BODY} bytes is refused")
         sid = request.headers.get("mcp-session-id")
         if sid is not None:
             upstream = self.by_session.get(sid)
             if upstream is None:
-                return JSONResponse(
-                    {"jsonrpc": "2.0", "id": None, "error": {"code": -32600, "message": "Session not found"}}, 404
-                )
-            upstream.sessions[sid] = time.monotonic()
-        else:
-            upstream = self.pick(body)
-            if upstream.load() >= 1 and _method(body) == "initialize":  # every process's robots are taken
-                robots = sum(u.robots for u in self.upstreams)
-                message = (
-                    f"robocog-server: all {robots} robots of this server are driven by other sessions (--robots "
-                    f"{robots}); close a session (HTTP DELETE /mcp with its Mcp-Session-Id), wait for one to idle "
-                    f"out ({self.idle_s:g} s), or start the server with more robots"
-                )
-                return JSONResponse({"jsonrpc": "2.0", "id": None, "error": {"code": -32603, "message": message}}, 503)
+                return _error(404, "Session not found", code=-32600)
+            return await self._forward(request, bytes(body), upstream, sid)
+        upstream = self.pick(bytes(body))
+        if _method(bytes(body)) != "initialize":
+            return await self._forward(request, bytes(body), upstream, None)
+        if upstream.load() >= 1:  # every process's robots are taken
+            robots = sum(u.robots for u in self.upstreams)
+            return _error(
+                503,
+                f"robocog-server: all {robots} robots of this server are driven by other sessions (--robots "
+                f"{robots}); close a session (HTTP DELETE /mcp with its Mcp-Session-Id), wait for one to idle "
+                f"out ({self.idle_s:g} s), or start the server with more robots",
+            )
+        upstream.pending += 1  # counted at once: a burst of new sessions spreads over the processes
+        try:
+            return await self._forward(request, bytes(body), upstream, None)
+        finally:
+            upstream.pending -= 1
+
+    async def _forward(self, request: Request, body: bytes, upstream: Upstream, sid: str | None) -> Response:
+        """Send the request to `upstream` and stream its answer back (the session stays in flight
+        until the answer's last byte: a GET stream for as long as it is open)."""
+        import httpx2
+        from starlette.background import BackgroundTask
+        from starlette.responses import StreamingResponse
+
         if self._client is None:
             self._client = httpx2.AsyncClient(timeout=httpx2.Timeout(None), limits=httpx2.Limits(max_connections=None))
         headers = [(k, v) for k, v in request.headers.raw if k.decode("latin-1").lower() != "content-length"]
         outgoing = self._client.build_request(
             request.method, upstream.url, params=request.url.query, headers=headers, content=body
         )
+        if sid is not None:
+            upstream.inflight[sid] = upstream.inflight.get(sid, 0) + 1
         try:
             response = await self._client.send(outgoing, stream=True)
         except httpx2.HTTPError as exc:
-            message = f"robocog-server: fleet process {upstream.index} is not answering ({type(exc).__name__})"
-            return JSONResponse({"jsonrpc": "2.0", "id": None, "error": {"code": -32603, "message": message}}, 502)
+            self._ended(upstream, sid)
+            return _error(
+                502, f"robocog-server: fleet process {upstream.index} is not answering ({type(exc).__name__})"
+            )
         new_sid = response.headers.get("mcp-session-id")
         if sid is None and new_sid and response.status_code < 400:
             self.by_session[new_sid] = upstream
             upstream.sessions[new_sid] = time.monotonic()
         if sid is not None and (response.status_code == 404 or (request.method == "DELETE" and response.is_success)):
             self._forget(sid)
+
+        async def done() -> None:
+            await response.aclose()
+            self._ended(upstream, sid)
+
         kept = [(k, v) for k, v in response.headers.raw if k.decode("latin-1").lower() not in _HOP_HEADERS]
         streamed = StreamingResponse(
-            response.aiter_raw(), status_code=response.status_code, background=BackgroundTask(response.aclose)
+            response.aiter_raw(), status_code=response.status_code, background=BackgroundTask(done)
         )
         streamed.raw_headers = [(k.lower(), v) for k, v in kept]
         return streamed
+
+    def _ended(self, upstream: Upstream, sid: str | None) -> None:
+        if sid is None or sid not in upstream.inflight:
+            return
+        upstream.inflight[sid] -= 1
+        if sid in upstream.sessions:
+            upstream.sessions[sid] = time.monotonic()
 
     def app(self) -> Any:
         from starlette.applications import Starlette
@@ -201,6 +258,12 @@ class Router:
             routes=[Route("/mcp", self.handle, methods=["GET", "POST", "DELETE"])],
             lifespan=lambda _: contextlib.asynccontextmanager(closing)(),
         )
+
+
+def _error(status: int, message: str, *, code: int = -32603) -> Response:
+    from starlette.responses import JSONResponse
+
+    return JSONResponse({"jsonrpc": "2.0", "id": None, "error": {"code": code, "message": message}}, status)
 
 
 def _message(body: bytes) -> dict[str, Any]:
@@ -262,7 +325,7 @@ class Fleet:
         except BaseException:
             self.stop()
             raise
-        return Router(self.upstreams, idle_s=self.session_idle_s)
+        return Router(self.upstreams, idle_s=self.session_idle_s, token=self.auth_token)
 
     def __exit__(self, *exc: object) -> None:
         self.stop()
@@ -275,17 +338,20 @@ class Fleet:
         memory_url = self.memory_url or self._start_chroma(env)
         for upstream in self.upstreams:
             args = [
+                *self.argv,  # first: the router's own flags below are the last word
                 *("--transport", "http", "--host", "127.0.0.1", "--port", str(upstream.port)),
                 *("--robots", str(upstream.robots), "--processes", "1"),
                 *("--max-sessions", str(upstream.robots + 4), "--memory-url", memory_url),
                 *(f"--allowed-host={h}" for h in self.allowed_hosts),
-                *self.argv,
             ]
             upstream.proc = subprocess.Popen(
                 [sys.executable, "-m", "robocog.server.cli", *args],
-                env=env | {"ROBOCOG_FLEET_PROCESS": f"{upstream.index + 1}/{len(self.upstreams)}"},
+                env=env
+                | {
+                    "ROBOCOG_FLEET_PROCESS": f"{upstream.index + 1}/{len(self.upstreams)}",
+                    PARENT_ENV: str(os.getpid()),
+                },
                 stdout=sys.stderr.buffer,
-                preexec_fn=die_with_parent,
             )
         for upstream in self.upstreams:
             assert upstream.proc is not None

@@ -16,3 +16,21 @@ def die_with_parent() -> None:
     the router or the harness that started it."""
     with contextlib.suppress(OSError, AttributeError):
         ctypes.CDLL("libc.so.6", use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
+
+
+#: Set by a parent for a child robocog-server: its pid. The child then ends with it (`follow_parent`).
+PARENT_ENV = "ROBOCOG_PARENT_PID"
+
+
+def follow_parent() -> None:
+    """In a robocog-server started with `PARENT_ENV` set: be sent SIGTERM when that parent dies, and
+    end at once if it died already (the server arms this itself, at start, instead of a `preexec_fn`,
+    which is unsafe when the parent has threads)."""
+    import os
+
+    expected = os.environ.get(PARENT_ENV)
+    if not expected:
+        return
+    die_with_parent()
+    if str(os.getppid()) != expected:  # the parent died before the signal was armed
+        os._exit(0)

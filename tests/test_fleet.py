@@ -23,7 +23,7 @@ from robocog.server.fleet import Fleet, FleetFull
 from robocog.server.ownership import Driver
 from robocog.shared.evaluation import AttemptRow, EvalConfig
 from robocog.shared.protocol import DRIVER_META_KEY as DRIVER
-from tests.helpers import http_server
+from tests.helpers import free_port, http_server
 
 pytestmark = pytest.mark.anyio
 
@@ -242,4 +242,24 @@ def test_the_router_splits_robots_and_arguments_and_keeps_a_sessionless_driver_i
     call_by = json.dumps({"jsonrpc": "2.0", "id": 1, "method": "tools/call", "params": {"_meta": {DRIVER: "me"}}})
     assert len({router.pick(call_by.encode()).index for _ in range(5)}) == 1, "always the same process"
     router.upstreams[0].sessions["s1"] = 0.0
-    assert router.pick(b'{"jsonrpc": "2.0", "id": 1, "method": "initialize"}').index == 1, "the least loaded"
+    initialize = b'{"jsonrpc": "2.0", "id": 1, "method": "initialize"}'
+    assert router.pick(initialize).index == 1, "the least loaded"
+    router.upstreams[1].pending = 2  # a burst of new sessions not yet answered counts at once
+    assert router.pick(initialize).index == 0
+
+
+def test_the_router_checks_the_token_and_the_size_before_it_reads_on() -> None:
+    from starlette.testclient import TestClient
+
+    from robocog.server.router import MAX_BODY, Router, Upstream
+
+    router = Router([Upstream(0, free_port(), 1)], token="t" * 32)
+    with TestClient(router.app()) as client:
+        assert client.post("/mcp", content=b"{}").status_code == 401
+        assert client.post("/mcp", content=b"{}", headers={"authorization": "Bearer wrong"}).status_code == 401
+        big = client.post("/mcp", content=b"x" * (MAX_BODY + 1), headers={"authorization": "Bearer " + "t" * 32})
+        assert big.status_code == 413
+        unknown = client.post(
+            "/mcp", content=b"{}", headers={"authorization": "Bearer " + "t" * 32, "mcp-session-id": "x"}
+        )
+        assert unknown.status_code == 404
