@@ -444,7 +444,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (OSError, BaseExceptionGroup) as exc:
         from robocog.agent.connection import leaf_message
 
-        print(f"robocog: cannot reach the robot server: {leaf_message(exc)}", file=sys.stderr)
+        leaf = exc
+        while isinstance(leaf, BaseExceptionGroup) and leaf.exceptions:
+            leaf = leaf.exceptions[0]
+        if isinstance(leaf, ConfigError | ServerConnectionError):  # it says what happened itself
+            print(f"robocog: {leaf}", file=sys.stderr)
+        else:
+            print(f"robocog: cannot reach the robot server: {leaf_message(exc)}", file=sys.stderr)
         return 2
     return 2
 

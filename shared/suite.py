@@ -356,7 +356,11 @@ def _split(directory: Path, split: str) -> tuple[Instance, ...]:
     try:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
-        raise ConfigError(f"{path}: no such split") from None
+        if not directory.is_dir():
+            known = sorted(p.name for p in SUITES_DIR.iterdir() if (p / "suite.yaml").exists())
+            raise ConfigError(f"suite: no suite at {directory}; known suites: {', '.join(known)}") from None
+        splits = sorted(p.stem for p in directory.glob("*.jsonl"))
+        raise ConfigError(f"split: {path}: no such split; the splits of this suite: {', '.join(splits)}") from None
     return tuple(parse_instances(text, str(path)))
 
 
