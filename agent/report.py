@@ -22,6 +22,7 @@ Outputs `report.md` (tables, with the PNG figures embedded), the figures, `summa
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from collections.abc import Sequence
@@ -266,7 +267,10 @@ def _consistency(summary: Summary) -> list[str]:
     lines = [
         [_cell(r.model), r.task, *[_pct(r.pass_hat[k]) if k in r.pass_hat else "n/a" for k in ks]]
         for r in summary.table
+        if r.pass_hat  # a suite's families have theirs per instance, in "Per family"
     ]
+    if not lines:
+        return []
     return [
         "## Consistency across trials (pass^k)",
         "",
@@ -456,6 +460,10 @@ def render(
     rows = by_protocol(rows)
     out.mkdir(parents=True, exist_ok=True)
     summary = summarise(by_family(rows))
+    suite = {r.family for r in rows if r.family}
+    if suite:  # a family's attempts are of several instances: its pass^k is per instance, in "Per family"
+        table = tuple(dataclasses.replace(t, pass_hat={}) if t.task in suite else t for t in summary.table)
+        summary = dataclasses.replace(summary, table=table)
     scores = family_scores(rows)
     data = summary.as_json()
     data["families"] = [s.as_json() for s in scores]

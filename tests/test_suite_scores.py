@@ -204,6 +204,14 @@ def suite_report(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return render(_study(), tmp_path_factory.mktemp("suite") / "out", title="suite")
 
 
+def test_a_suite_has_pass_k_per_instance_only_never_across_a_family_s_instances(suite_report: Path) -> None:
+    text = suite_report.read_text()
+    assert "## Consistency across trials" not in text  # there a family's instances would count as its trials
+    assert "pass^4 (95% CI)" in text[text.index("## Per family") :]
+    summary = json.loads((suite_report.parent / "summary.json").read_text())
+    assert all(not any(k.startswith("pass^") for k in row) for row in summary["table"])
+
+
 def test_the_report_has_the_per_family_table_and_the_taxonomy(suite_report: Path) -> None:
     text = suite_report.read_text()
     assert "## Success on swap" in text and "## Success on suite" not in text  # instances under their family
