@@ -211,16 +211,14 @@ class Runner:
         """Run the unit from `start_iteration`; returns the iteration to continue from if the server broke."""
         cfg, protocol = self.config, self.protocol
         seed = cfg.seed + trial
+        # The unit's memory settings, for every reset (a suite instance's too).
+        reset = {
+            "memory_labels": cfg.memory_labels,
+            "search_k": protocol.search_k,
+            "memory_namespace": unit_namespace(cfg.name, spec.name, trial),
+        }
         for iteration in range(start_iteration, cfg.memory_iterations):
-            await _control(
-                robot,
-                "reset_world",
-                seed=seed,
-                randomize=cfg.randomize,
-                memory_labels=cfg.memory_labels,
-                search_k=protocol.search_k,
-                memory_namespace=unit_namespace(cfg.name, spec.name, trial),
-            )
+            await _control(robot, "reset_world", seed=seed, randomize=cfg.randomize, **reset)
             if iteration == 0:
                 await _control(robot, "clear_memory")
             conversation: list[dict[str, Any]] = []  # the paper: one conversation per memory iteration
@@ -231,11 +229,6 @@ class Runner:
                     continue
                 messages = conversation if protocol.continue_conversation else []
                 try:
-                    reset = {
-                        "memory_labels": cfg.memory_labels,
-                        "search_k": protocol.search_k,
-                        "memory_namespace": unit_namespace(cfg.name, spec.name, trial),
-                    }
                     # a suite's instance: its world set up, its earlier tasks run (an errored one is its row)
                     early = await self.suite.set_up(self, robot, spec, trial, iteration, task_id, messages, reset)
                     if early is None:

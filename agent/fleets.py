@@ -14,7 +14,6 @@ from __future__ import annotations
 import asyncio
 import math
 import os
-import socket
 import subprocess
 from collections.abc import Sequence
 from pathlib import Path
@@ -23,7 +22,7 @@ from typing import IO, Self
 
 from robocog.agent.connection import default_server_command
 from robocog.shared.errors import ServerConnectionError
-from robocog.shared.process import PARENT_ENV
+from robocog.shared.process import PARENT_ENV, free_port, wait_listening
 
 #: How long a fleet may take to listen (its imports and first robot take about 3 s on this machine).
 START_TIMEOUT_S = 90.0
@@ -34,12 +33,6 @@ def memory_args(server_args: Sequence[str], data_dir: Path) -> list[str]:
     it to a Chroma server (`--memory-url`), where every unit's namespace is its own anyway."""
     memory_url = any(a == "--memory-url" or a.startswith("--memory-url=") for a in server_args)
     return [*server_args] if memory_url else ["--data-dir", str(data_dir), *server_args]
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 class Fleets:
@@ -87,22 +80,11 @@ class Fleets:
         self._procs[index] = subprocess.Popen([*self.command, *self._args(index)], stdout=log, stderr=log, env=env)
 
     async def _wait_listening(self, index: int) -> None:
-        proc, port = self._procs[index], self.ports[index]
+        proc = self._procs[index]
         assert proc is not None
-        deadline = asyncio.get_running_loop().time() + START_TIMEOUT_S
-        while True:
-            if proc.poll() is not None:
-                raise ServerConnectionError(self._failure(index, f"exited with status {proc.returncode}"))
-            try:
-                _, writer = await asyncio.open_connection("127.0.0.1", port)
-            except OSError:
-                if asyncio.get_running_loop().time() > deadline:
-                    what = f"did not listen within {START_TIMEOUT_S:g} s"
-                    raise ServerConnectionError(self._failure(index, what)) from None
-                await asyncio.sleep(0.1)
-                continue
-            writer.close()
-            return
+        problem = await asyncio.to_thread(wait_listening, self.ports[index], proc, START_TIMEOUT_S)
+        if problem is not None:
+            raise ServerConnectionError(self._failure(index, problem))
 
     def _failure(self, index: int, what: str) -> str:
         lines = self._log_path(index).read_text(encoding="utf-8", errors="replace").splitlines()

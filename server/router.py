@@ -26,7 +26,6 @@ import hmac
 import json
 import logging
 import os
-import socket
 import subprocess
 import sys
 import time
@@ -37,7 +36,7 @@ from typing import TYPE_CHECKING, Any
 
 from robocog.server.config import DEFAULT_SESSION_IDLE_S
 from robocog.shared.errors import ConfigError
-from robocog.shared.process import PARENT_ENV, die_with_parent
+from robocog.shared.process import PARENT_ENV, die_with_parent, free_port, wait_listening
 from robocog.shared.protocol import DRIVER_META_KEY
 
 if TYPE_CHECKING:
@@ -65,12 +64,6 @@ _HOP_HEADERS = {"connection", "keep-alive", "transfer-encoding", "te", "trailer"
 START_TIMEOUT_S = 90.0
 #: The largest request body passed on (the SDK's own limit for streamable HTTP).
 MAX_BODY = 4 * 1024 * 1024
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 def shares(robots: int, processes: int) -> list[int]:
@@ -391,16 +384,10 @@ class Fleet:
 
 
 def _wait_listening(port: int, proc: subprocess.Popen[bytes], what: str) -> None:
-    deadline = time.monotonic() + START_TIMEOUT_S
-    while True:
-        if proc.poll() is not None:
-            raise ConfigError(f"{what} exited with status {proc.returncode} before it listened (see its log above)")
-        with socket.socket() as s:
-            if s.connect_ex(("127.0.0.1", port)) == 0:
-                return
-        if time.monotonic() > deadline:
-            raise ConfigError(f"{what} did not listen within {START_TIMEOUT_S:g} s")
-        time.sleep(0.1)
+    problem = wait_listening(port, proc, START_TIMEOUT_S)
+    if problem is not None:
+        before = " before it listened (see its log above)" if problem.startswith("exited") else ""
+        raise ConfigError(f"{what} {problem}{before}")
 
 
 def _exit_on_sigterm(signum: int, frame: object) -> None:

@@ -5,6 +5,9 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import signal
+import socket
+import subprocess
+import time
 
 #: prctl(2)'s PR_SET_PDEATHSIG.
 _PR_SET_PDEATHSIG = 1
@@ -34,3 +37,25 @@ def follow_parent() -> None:
     die_with_parent()
     if str(os.getppid()) != expected:  # the parent died before the signal was armed
         os._exit(0)
+
+
+def free_port() -> int:
+    """A TCP port free on loopback right now."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def wait_listening(port: int, proc: subprocess.Popen[bytes], timeout_s: float) -> str | None:
+    """Wait until `proc` listens on loopback `port`: None once it does, else why it never will
+    ("exited with status N", "did not listen within T s")."""
+    deadline = time.monotonic() + timeout_s
+    while True:
+        if proc.poll() is not None:
+            return f"exited with status {proc.returncode}"
+        with socket.socket() as s:
+            if s.connect_ex(("127.0.0.1", port)) == 0:
+                return None
+        if time.monotonic() > deadline:
+            return f"did not listen within {timeout_s:g} s"
+        time.sleep(0.1)
