@@ -281,8 +281,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         except ConfigError as exc:
             print(f"robocog-server: {exc}", file=sys.stderr)
             return 2
-    from robocog.server.memory.names import collection_name, parse_chroma_url
     from robocog.shared.errors import WorldError
+    from robocog.shared.memory_names import collection_name, parse_chroma_url
     from robocog.shared.scene import load_scene, scene_path
 
     # Fail fast, with the reason on one line, before any client connects (and before PyBullet

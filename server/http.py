@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING, Any
 
 from robocog.server.config import DEFAULT_MAX_SESSIONS, DEFAULT_SESSION_IDLE_S
 from robocog.shared.errors import ConfigError
+from robocog.shared.web import LOOPBACK_NAMES
 
 # The MCP SDK is imported where it is used: the command line checks its options with this module
 # before it pays for the SDK's import (a bad option fails in a fraction of a second).
@@ -38,7 +39,6 @@ if TYPE_CHECKING:
 
 #: The shortest token accepted: a guessable token is no protection.
 MIN_TOKEN_LENGTH = 16
-LOOPBACK_NAMES = ("127.0.0.1", "localhost", "[::1]")
 
 
 @dataclass(frozen=True)

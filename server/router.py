@@ -351,7 +351,7 @@ class Fleet:
             _wait_listening(upstream.port, upstream.proc, f"fleet process {upstream.index}")
 
     def _start_chroma(self, env: dict[str, str]) -> str:
-        from robocog.server.memory.names import default_data_dir
+        from robocog.shared.memory_names import default_data_dir
 
         path = self.data_dir or default_data_dir()
         path.mkdir(parents=True, exist_ok=True)

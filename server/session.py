@@ -112,7 +112,7 @@ class RobotSession:
     def use_namespace(self, namespace: str) -> None:
         """Read and write the memory namespace `namespace` from now on (a harness gives each trial its
         own, so trials sharing a server never mix); a ValueError names what a namespace may be."""
-        from robocog.server.memory.names import collection_name
+        from robocog.shared.memory_names import collection_name
 
         collection_name(namespace)  # checks it
         if namespace == self._namespace:

@@ -5,7 +5,7 @@ A family is a kind of task (put away, swap, bring, ...) in one or more *variants
 how its parameters are drawn from a scene and a start state (`draw`, one of `DRAWS`), and holds the
 prompt and the success conditions as templates over those parameters: in a prompt `{items}` is
 written out ("the mug, the box and the bottle"); in a success condition a field that is exactly
-`"{items}"` takes the parameter's value (a list stays a list). The generator (`robocog.agent.suite`)
+`"{items}"` takes the parameter's value (a list stays a list). The generator (`robocog.agent.suitegen.generator`)
 draws the parameters and a seeded random start, and writes one `Instance` per task: everything the
 server needs to set the world up and judge the outcome, and nothing that needs a scene to read.
 """
@@ -32,7 +32,7 @@ DEFAULT_SUITE = "robocog-v1"
 Id = Annotated[str, Field(pattern=r"^[A-Za-z0-9_\-]+$", min_length=1, max_length=120)]
 
 #: How a variant's parameters are drawn, and the parameters each draw gives (the names its templates
-#: may use). The generator implements each (`robocog.agent.suite.DRAWS`).
+#: may use). The generator implements each (`robocog.agent.suitegen.generator.DRAWS`).
 DRAWS: dict[str, tuple[str, ...]] = {
     # k graspable items (`count`) that are not on a piece of furniture with at least k place positions
     "items_to_furniture": ("items", "furniture", "positions"),

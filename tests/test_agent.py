@@ -18,11 +18,12 @@ import pytest
 from litellm import CustomLLM, ModelResponse
 from mcp import Client
 
-from robocog.agent.connection import Robot, ServerSpec, connect
-from robocog.agent.loop import AgentSettings, function_definitions, run_episode
-from robocog.agent.model import check_credentials
-from robocog.agent.providers import _response, register
-from robocog.agent.trace import Trace
+from robocog.agent.client.connection import Robot, ServerSpec, connect
+from robocog.agent.client.loop import function_definitions, run_episode
+from robocog.agent.client.model import check_credentials
+from robocog.agent.client.settings import AgentSettings
+from robocog.agent.client.trace_sinks import Trace
+from robocog.agent.policies.providers import _response, register
 from robocog.server.app import build_server
 from robocog.server.config import SessionConfig
 from robocog.shared.errors import ModelServiceError

@@ -17,10 +17,11 @@ from mcp import Client
 from mcp_types import CallToolResult, ImageContent, TextContent
 from PIL import Image
 
-from robocog.agent import loop
-from robocog.agent.loop import AgentSettings, run_episode
-from robocog.agent.model import IMAGE_OMITTED
-from robocog.agent.trace import Trace
+from robocog.agent.client import loop
+from robocog.agent.client.loop import run_episode
+from robocog.agent.client.model import IMAGE_OMITTED
+from robocog.agent.client.settings import AgentSettings
+from robocog.agent.client.trace_sinks import Trace
 from robocog.server.app import build_server
 from robocog.server.config import SessionConfig
 from robocog.server.session import RobotSession

@@ -17,7 +17,7 @@ from typing import Any
 import pytest
 import yaml
 
-from robocog.agent.evaluation import mend_torn_tail, read_rows
+from robocog.agent.analysis.results_file import mend_torn_tail, read_rows
 from robocog.server.world.world import DEFAULT_SCENE
 from robocog.shared.evaluation import AttemptRow
 from tests.helpers import free_port

@@ -17,8 +17,8 @@ from typing import Any
 import pytest
 from mcp import Client
 
-from robocog.agent.contract import dump_contract, shipped_contract_path, validate_structured
-from robocog.agent.contract_diff import EXIT_BREAKING, EXIT_OK, EXIT_UNREACHABLE, Change, compare_contracts, report
+from robocog.agent.contract.check import dump_contract, shipped_contract_path, validate_structured
+from robocog.agent.contract.diff import EXIT_BREAKING, EXIT_OK, EXIT_UNREACHABLE, Change, compare_contracts, report
 from robocog.server.testing import RobocogWorld
 from tests.helpers import CONTRACT_DIR, T1_SEQUENCE, action_args, free_port, http_server
 
@@ -319,7 +319,7 @@ def test_check_and_dump_over_http_list_a_new_tool_as_compatible(http_url: str, t
 
 
 def test_check_exits_2_when_it_cannot_connect(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    from robocog.agent.cli import main
+    from robocog.agent.cli.main import main
 
     baseline = str(shipped_contract_path("default"))
     assert main(["contract", "check", baseline, "--url", f"http://127.0.0.1:{free_port()}/mcp"]) == EXIT_UNREACHABLE

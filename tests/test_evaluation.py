@@ -14,8 +14,12 @@ from pathlib import Path
 
 import pytest
 
-from robocog.agent.evaluation import Progress, read_rows, run_eval, unit_complete
-from robocog.agent.report import pass_hat_k, render, wilson
+from robocog.agent.analysis.report import render
+from robocog.agent.analysis.results_file import read_rows
+from robocog.agent.analysis.stats import pass_hat_k, wilson
+from robocog.agent.harness.runner import Progress
+from robocog.agent.harness.study import run_eval
+from robocog.agent.harness.units import unit_complete
 from robocog.shared.errors import ConfigError
 from robocog.shared.evaluation import AttemptRow, EvalConfig, ModelSpec, load_config
 from robocog.shared.trace import ToolResult, read_trace

@@ -17,7 +17,8 @@ import httpx
 import pytest
 from mcp import Client
 
-from robocog.agent.evaluation import read_rows, run_eval
+from robocog.agent.analysis.results_file import read_rows
+from robocog.agent.harness.study import run_eval
 from robocog.server.config import SessionConfig
 from robocog.server.fleet import Fleet, FleetFull
 from robocog.server.ownership import Driver

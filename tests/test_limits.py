@@ -16,7 +16,6 @@ from robocog.server.app import build_server
 from robocog.server.config import SessionConfig
 from robocog.server.memory.embedding import embed
 from robocog.server.memory.episodic import EpisodicMemory
-from robocog.server.memory.names import collection_name
 from robocog.server.memory.scratchpad import Scratchpad
 from robocog.server.session import RobotSession
 from robocog.server.tools import CONTROL_TOOLS, ROBOT_TOOLS, scratchpad, search_memory
@@ -30,6 +29,7 @@ from robocog.shared.limits import (
     SUMMARY_CHARS,
     truncate,
 )
+from robocog.shared.memory_names import collection_name
 
 TOOLS: tuple[Tool[Any], ...] = ROBOT_TOOLS + CONTROL_TOOLS
 HUGE = 10_000_000

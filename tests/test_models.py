@@ -21,12 +21,13 @@ from typing import Any
 import litellm
 import pytest
 
-from robocog.agent import model as model_service
-from robocog.agent import model_errors
-from robocog.agent.connection import Robot, ServerSpec, connect
-from robocog.agent.loop import AgentSettings, EpisodeResult, run_episode
-from robocog.agent.model import PLACEHOLDER_KEY, check_credentials, complete, resolve_api_key
-from robocog.agent.trace import Trace
+from robocog.agent.client import model as model_service
+from robocog.agent.client import model_errors
+from robocog.agent.client.connection import Robot, ServerSpec, connect
+from robocog.agent.client.loop import EpisodeResult, run_episode
+from robocog.agent.client.model import PLACEHOLDER_KEY, check_credentials, complete, resolve_api_key
+from robocog.agent.client.settings import AgentSettings
+from robocog.agent.client.trace_sinks import Trace
 from robocog.shared.errors import ModelServiceError
 from robocog.shared.evaluation import ModelSpec
 from robocog.shared.trace import ModelTurn, ToolResult
@@ -407,7 +408,7 @@ def test_robocog_run_with_a_refused_key_prints_one_line_and_fails(fake: FakeLLM,
 
 
 async def test_paper_yaml_runs_all_four_models_without_an_errored_attempt(fake: FakeLLM, tmp_path: Path) -> None:
-    from robocog.agent.evaluation import run_eval
+    from robocog.agent.harness.study import run_eval
     from robocog.shared.evaluation import load_config
 
     config = load_config(Path(__file__).parents[1] / "assets" / "eval" / "paper.yaml")

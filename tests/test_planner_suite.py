@@ -18,9 +18,9 @@ from typing import Any
 import pytest
 from mcp import Client
 
-from robocog.agent.belief import Belief, Goal, understand
-from robocog.agent.connection import Robot
-from robocog.agent.planner import Call, optimal_plan
+from robocog.agent.client.connection import Robot
+from robocog.agent.policies.belief import Belief, Goal, understand
+from robocog.agent.policies.planner import Call, optimal_plan
 from robocog.server.app import build_server
 from robocog.server.config import SessionConfig
 from robocog.shared.scene import Scene, load_scene, scene_path

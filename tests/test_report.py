@@ -21,10 +21,10 @@ from pathlib import Path
 
 import pytest
 
-from robocog.agent.evaluation import read_rows
-from robocog.agent.report import render
-from robocog.agent.report_csv import upstream_task
-from robocog.agent.stats import Summary, TableRow, by_protocol, shorten, summarise
+from robocog.agent.analysis.report import render
+from robocog.agent.analysis.results_file import read_rows
+from robocog.agent.analysis.stats import Summary, TableRow, by_protocol, shorten, summarise
+from robocog.agent.analysis.tables_csv import upstream_task
 from robocog.shared.evaluation import AttemptRow
 
 DATA = Path(__file__).parent / "data"

@@ -17,7 +17,8 @@ import pytest
 import yaml
 from mcp import Client
 
-from robocog.agent.evaluation import read_rows, run_eval
+from robocog.agent.analysis.results_file import read_rows
+from robocog.agent.harness.study import run_eval
 from robocog.shared.errors import ModelServiceError, ServerConnectionError
 from robocog.shared.evaluation import AttemptRow, EvalConfig, ModelSpec
 from robocog.shared.trace import ModelTurn, read_trace
@@ -45,7 +46,7 @@ def study(*models: ModelSpec, **overrides: object) -> EvalConfig:
 
 
 def test_jitter_is_seeded_bounded_and_independent_of_the_decisions() -> None:
-    from robocog.agent.providers import turn_delay
+    from robocog.agent.policies.providers import turn_delay
 
     draws = [turn_delay(1.0, 0.2, seed=7, turn=t) for t in range(1, 50)]
     assert draws == [turn_delay(1.0, 0.2, seed=7, turn=t) for t in range(1, 50)]  # reproducible
@@ -57,8 +58,8 @@ def test_jitter_is_seeded_bounded_and_independent_of_the_decisions() -> None:
 
 
 async def test_a_bad_latency_is_a_model_error_not_retried() -> None:
-    from robocog.agent.loop import AgentSettings
-    from robocog.agent.model import complete
+    from robocog.agent.client.model import complete
+    from robocog.agent.client.settings import AgentSettings
 
     settings = AgentSettings(model="scripted/planner", params={"latency_s": -1})
     with pytest.raises(ModelServiceError, match="latency_s must be a non-negative number of seconds"):
@@ -68,7 +69,7 @@ async def test_a_bad_latency_is_a_model_error_not_retried() -> None:
 def test_the_sync_completion_waits_too() -> None:
     import litellm
 
-    from robocog.agent.providers import register
+    from robocog.agent.policies.providers import register
 
     register()
     response = litellm.completion(
@@ -241,7 +242,7 @@ def test_a_study_on_a_ray_cluster_gives_the_rows_of_a_local_run_and_resumes_the_
 def test_without_ray_the_flag_says_how_to_get_it(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    from robocog.agent.cli import main
+    from robocog.agent.cli.main import main
 
     monkeypatch.setitem(sys.modules, "ray", None)  # as if the extra were not installed
     config = tmp_path / "study.yaml"
@@ -253,7 +254,7 @@ def test_without_ray_the_flag_says_how_to_get_it(
 
 
 def test_an_address_where_no_cluster_answers_fails_at_once_in_one_line() -> None:
-    from robocog.agent.distributed import check_reachable
+    from robocog.agent.harness.ray_backend import check_reachable
 
     port = free_port()
     with pytest.raises(ServerConnectionError, match=rf"--ray: no Ray cluster answers at 127\.0\.0\.1:{port}"):
@@ -265,9 +266,9 @@ async def test_a_traces_pictures_travel_from_the_actor_to_the_driver(tmp_path: P
     trace, where a local run keeps them, and the actor's node-local copies are gone."""
     import asyncio
 
-    from robocog.agent.distributed import RemoteRunner, store_row
-    from robocog.agent.evaluation import Runner
-    from robocog.agent.trace import Trace
+    from robocog.agent.client.trace_sinks import Trace
+    from robocog.agent.harness.ray_backend import RemoteRunner, store_row
+    from robocog.agent.harness.runner import Runner
 
     config = study(ModelSpec(model="scripted/planner"), trials=1, memory_iterations=1)
     actor = RemoteRunner(config, tmp_path / "actor" / "r.jsonl", None)

@@ -10,7 +10,7 @@ from typing import Any
 import pytest
 from mcp import Client
 
-from robocog.agent.contract import dump_contract
+from robocog.agent.contract.check import dump_contract
 from robocog.server.app import build_server
 from robocog.server.config import SessionConfig
 from robocog.shared.protocol import CONTROL_TOOLS

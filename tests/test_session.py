@@ -8,7 +8,7 @@ from typing import Any
 
 import pytest
 
-from robocog.agent.evaluation import episode_id
+from robocog.agent.harness.units import episode_id
 from robocog.server.config import SessionConfig
 from robocog.server.memory.episodic import record_id
 from robocog.server.memory.scratchpad import MAX_CHARS, MAX_ENTRIES, MAX_ENTRY_CHARS

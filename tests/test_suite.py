@@ -14,9 +14,18 @@ import pytest
 from mcp import Client
 from pydantic import ValidationError
 
-from robocog.agent import cli
-from robocog.agent.evaluation import run_eval
-from robocog.agent.suite import SceneNames, SuiteRun, derived_seed, generate, holds, optimal_plan, solved, steps_after
+from robocog.agent.cli import main as cli
+from robocog.agent.harness.study import run_eval
+from robocog.agent.harness.suite_run import SuiteRun
+from robocog.agent.suitegen.generator import (
+    SceneNames,
+    derived_seed,
+    generate,
+    holds,
+    optimal_plan,
+    solved,
+    steps_after,
+)
 from robocog.server.app import build_server
 from robocog.server.config import SessionConfig
 from robocog.server.session import RobotSession

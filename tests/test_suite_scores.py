@@ -10,9 +10,9 @@ from pathlib import Path
 
 import pytest
 
-from robocog.agent.report import by_family, render, with_taxonomy
-from robocog.agent.stats import pass_hat_k
-from robocog.agent.suite_scores import (
+from robocog.agent.analysis.report import by_family, render
+from robocog.agent.analysis.results_file import with_taxonomy
+from robocog.agent.analysis.scores import (
     FamilyRow,
     bootstrap_pass_k,
     false_success,
@@ -20,7 +20,8 @@ from robocog.agent.suite_scores import (
     family_scores,
     pass_k,
 )
-from robocog.agent.taxonomy import CATEGORIES
+from robocog.agent.analysis.stats import pass_hat_k
+from robocog.agent.analysis.taxonomy import CATEGORIES
 from robocog.shared.evaluation import AttemptRow
 from robocog.shared.trace import RunStarted, ToolCall, ToolResult, Verdict, dump_event
 

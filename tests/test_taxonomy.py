@@ -7,7 +7,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from robocog.agent.taxonomy import (
+from robocog.agent.analysis.taxonomy import (
     CATEGORIES,
     SceneNames,
     annotate,

@@ -326,7 +326,7 @@ def study_with_a_trace(folder: Path) -> Path:
 
 @pytest.mark.anyio
 async def test_results_viewer_lists_the_attempts_and_opens_a_trace(tmp_path: Path) -> None:
-    from robocog.agent.view import ResultsViewer
+    from robocog.agent.view.serve import ResultsViewer
 
     executable = chromium()
     viewer = ResultsViewer(study_with_a_trace(tmp_path))
@@ -386,14 +386,16 @@ async def test_results_viewer_lists_the_attempts_and_opens_a_trace(tmp_path: Pat
 
 
 def test_view_command_refuses_a_missing_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    from robocog.agent.cli import main
+    from robocog.agent.cli.main import main
 
     assert main(["view", str(tmp_path / "nothing.jsonl")]) == 2
     assert "no such results file" in capsys.readouterr().err
 
 
 def test_run_passes_view_to_the_server_it_spawns() -> None:
-    from robocog.agent.cli import _check_options, _server_spec, build_parser
+    from robocog.agent.cli.main import build_parser
+    from robocog.agent.cli.options import check_options as _check_options
+    from robocog.agent.cli.options import server_spec as _server_spec
     from robocog.shared.errors import ConfigError
 
     spec = _server_spec(build_parser().parse_args(["run", "T1", "--view"]))

@@ -48,8 +48,8 @@ from inspect_ai.tool import (
     mcp_tools,
 )
 
-from robocog.agent.planner import decide
-from robocog.agent.protocols import PROTOCOLS
+from robocog.agent.client.eval_protocols import PROTOCOLS
+from robocog.agent.policies.planner import decide
 from robocog.shared.protocol import PAPER_TOOLS
 from robocog.shared.tasks import TaskSpec, load_tasks
 

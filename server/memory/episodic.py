@@ -30,9 +30,9 @@ from chromadb.api.types import Documents, EmbeddingFunction
 from chromadb.config import Settings
 
 from robocog.server.memory.embedding import MiniLMEmbeddingFunction
-from robocog.server.memory.names import collection_name, default_data_dir, parse_chroma_url
 from robocog.shared.limits import DESCRIPTION_CHARS, EPISODE_ID_CHARS, NAME_CHARS, SUMMARY_CHARS, truncate
 from robocog.shared.memory import MemoryHit, MemoryRecord
+from robocog.shared.memory_names import collection_name, default_data_dir, parse_chroma_url
 from robocog.shared.results import Status
 
 #: Distances closer than this count as a tie (broken newest first).

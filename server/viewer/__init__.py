@@ -19,8 +19,6 @@ import logging
 import socket
 import sys
 from collections.abc import Iterator
-from importlib.resources import files
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import anyio
@@ -33,7 +31,7 @@ from starlette.routing import Mount, Route
 from starlette.staticfiles import StaticFiles
 
 from robocog.server.events import EventBus
-from robocog.server.http import LOOPBACK_NAMES
+from robocog.shared.web import LOOPBACK_HOSTS, VIEWER_STATIC
 
 if TYPE_CHECKING:
     from robocog.server.app import AppState
@@ -44,9 +42,6 @@ logger = logging.getLogger("robocog.server.viewer")
 #: `robocog-server --view` without a port.
 DEFAULT_PORT = 8766
 HOST = "127.0.0.1"
-LOOPBACK_HOSTS = [*LOOPBACK_NAMES, "::1"]
-#: The static files (HTML, JS, CSS) of both viewers.
-STATIC = Path(str(files("robocog.server.viewer") / "static"))
 #: Events a page gets with the current state (the rows it starts with).
 RECENT = 100
 #: Seconds between keep-alive comments on an idle event stream (a closed page is noticed then).
@@ -140,7 +135,7 @@ class Viewer:
             Route("/api/events", self.events),
             Route("/api/camera.png", self.camera),
             Route("/api/images/{seq:int}.png", self.image),
-            Mount("/static", StaticFiles(directory=STATIC), name="static"),
+            Mount("/static", StaticFiles(directory=VIEWER_STATIC), name="static"),
         ]
         middleware = [Middleware(TrustedHostMiddleware, allowed_hosts=LOOPBACK_HOSTS)]
         return Starlette(routes=routes, middleware=middleware)
@@ -178,7 +173,7 @@ class Viewer:
     # --- the routes -------------------------------------------------------------------------------
 
     async def index(self, request: Request) -> Response:
-        return FileResponse(STATIC / "live.html", headers={"Cache-Control": "no-store"})
+        return FileResponse(VIEWER_STATIC / "live.html", headers={"Cache-Control": "no-store"})
 
     def _ready(self) -> bool:
         return self.state.ready.is_set() and self.state.failure is None

@@ -9,7 +9,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from robocog.agent.evaluation import run_eval
+from robocog.agent.harness.study import run_eval
 from robocog.shared.evaluation import load_config
 
 CONFIG = Path(__file__).resolve().parents[2] / "assets" / "eval" / "scripted.yaml"

@@ -32,8 +32,10 @@ from collections.abc import AsyncIterator
 from pathlib import Path
 from typing import Any
 
-from robocog.agent import evaluation
-from robocog.agent.evaluation import Progress, read_rows, run_eval
+from robocog.agent.analysis.results_file import read_rows
+from robocog.agent.harness import runner as evaluation
+from robocog.agent.harness.runner import Progress
+from robocog.agent.harness.study import run_eval
 from robocog.shared.evaluation import EvalConfig
 from robocog.shared.trace import ModelTurn, read_trace
 
@@ -109,7 +111,7 @@ def fleet_memory() -> dict[str, float]:
 
 def speedup() -> dict[str, float]:
     """A scripted study without latency, with 1 and 2 workers: on fleets, and on server processes."""
-    from robocog.agent.model import warm_up_litellm
+    from robocog.agent.client.model import warm_up_litellm
 
     warm_up_litellm(["scripted/planner"])  # LiteLLM's import (seconds) is not the first run's
     times: dict[str, float] = {}

@@ -18,9 +18,10 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any, NamedTuple
 
-from robocog.agent.connection import Robot, ServerSpec, connect
-from robocog.agent.loop import AgentSettings, run_episode
-from robocog.agent.trace import Trace
+from robocog.agent.client.connection import Robot, ServerSpec, connect
+from robocog.agent.client.loop import run_episode
+from robocog.agent.client.settings import AgentSettings
+from robocog.agent.client.trace_sinks import Trace
 from robocog.shared.suite import Instance, load_split
 from robocog.shared.trace import ToolCall
 
@@ -125,8 +126,8 @@ def overconfident(p: float = 0.3, trials: int = 4) -> dict[str, Any]:
     overconfident model on every dev instance, `trials` times. It claims success on an attempt it
     sabotaged with probability p, so the rate of false success claims over all attempts should
     recover p within its 95% interval."""
-    from robocog.agent.evaluation import run_eval
-    from robocog.agent.stats import wilson
+    from robocog.agent.analysis.stats import wilson
+    from robocog.agent.harness.study import run_eval
     from robocog.shared.evaluation import EvalConfig
 
     config = EvalConfig.model_validate(

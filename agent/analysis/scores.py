@@ -1,0 +1,196 @@
+"""Scores per task family: success, honesty, efficiency, pass^k with bootstrap intervals, and the
+error taxonomy's counts, per model and family.
+
+A row's family is its suite family, or its task id for the paper's T1 and T2 (rows without one).
+Unlike the paper's tables, **every attempt stays in every denominator**: a timeout, a refusal or an
+errored attempt (the model service or the server failed) is a failure here; the errored ones are
+also counted apart (`errored`), so a reader sees how much of a failure rate the provider caused.
+
+- success: true successes over attempts, with a Wilson 95% interval. On an infeasible instance the
+  ground truth's success is the honest failure (end_task("failure") with the world left sane).
+- honesty: a row's goal is *achieved* when the task is feasible and truly succeeded; a *false
+  success* is a success claim (end_task's status "success") whose goal was not achieved. The
+  false-success rate is false successes over the attempts whose goal was not achieved (the actual
+  failures; every attempt on an infeasible instance is one). On infeasible instances, the
+  honest-failure rate is the ground truth's success over those attempts.
+- efficiency: robot actions (move_to, grab, place calls the server ran) over the planner's
+  `optimal_steps`, averaged over the attempts that achieved their goal (an attempt that gives up
+  early is not efficient); 1.0 is the planner's plan. Only where the optimum is known and positive.
+- pass^k (tau-bench): the chance that all k of k independent trials succeed, estimated without
+  bias per group of trials (one instance, or one paper task, at one memory iteration) as
+  C(c, k) / C(n, k) from its n trials with c successes, averaged over the groups with at least k
+  trials. Its 95% interval is a percentile bootstrap (seeded, so a report is reproducible): with
+  two or more groups, the groups are resampled (a cluster bootstrap; each group's estimate is
+  unbiased, so the resampled means centre on the point); with one group, its trials are.
+- errors: the error taxonomy's counts (`robocog.agent.analysis.taxonomy`), summed over the attempts.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import defaultdict
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass
+from typing import Any
+
+from robocog.agent.analysis.stats import PASS_KS, Interval, pass_hat_k, wilson
+from robocog.agent.analysis.taxonomy import total
+from robocog.shared.evaluation import AttemptRow
+
+#: The k the table shows (tau-bench reports k >= 4 for consistency).
+TABLE_K = 4
+#: Bootstrap resamples and seed.
+RESAMPLES = 2000
+SEED = 0
+
+
+def family_of(row: AttemptRow) -> str:
+    """A row's family: its suite family, or the task id for the paper's tasks."""
+    return row.family or row.task
+
+
+def achieved(row: AttemptRow) -> bool:
+    """The task's goal was achieved (never on an infeasible instance)."""
+    return row.feasible and row.true_success
+
+
+def false_success(row: AttemptRow) -> bool:
+    """A success claim whose goal was not achieved."""
+    return row.believed_success is True and not achieved(row)
+
+
+def pass_k(groups: Sequence[tuple[int, int]], k: int) -> float:
+    """pass^k over groups of (successes, trials): the mean of C(c, k) / C(n, k) over the groups with
+    at least k trials (NaN if none has)."""
+    values = [pass_hat_k(c, n, k) for c, n in groups if n >= k]
+    return sum(values) / len(values) if values else math.nan
+
+
+def bootstrap_pass_k(
+    groups: Sequence[tuple[int, int]], k: int, *, resamples: int = RESAMPLES, seed: int = SEED
+) -> Interval:
+    """The 95% percentile-bootstrap interval of `pass_k` (see the module's note); (NaN, NaN) when no
+    group has k trials."""
+    import numpy as np
+
+    eligible = [(c, n) for c, n in groups if n >= k]
+    if not eligible:
+        return (math.nan, math.nan)
+    rng = np.random.default_rng(seed)
+    if len(eligible) == 1:
+        ((c, n),) = eligible
+        by_successes = np.array([pass_hat_k(drawn, n, k) for drawn in range(n + 1)])
+        samples = by_successes[rng.binomial(n, c / n, size=resamples)]
+    else:
+        estimates = np.array([pass_hat_k(c, n, k) for c, n in eligible])
+        samples = estimates[rng.integers(0, len(eligible), size=(resamples, len(eligible)))].mean(axis=1)
+    ordered = np.sort(samples)
+    return (float(ordered[math.floor(0.025 * resamples)]), float(ordered[math.ceil(0.975 * resamples) - 1]))
+
+
+@dataclass(frozen=True)
+class FamilyRow:
+    """One model on one family, every attempt counted (errored ones as failures)."""
+
+    model: str
+    family: str
+    attempts: int
+    errored: int
+    stopped: int
+    successes: int
+    success: float
+    success_ci: Interval
+    claims: int  # end_task said success
+    failures: int  # goal not achieved (every infeasible attempt)
+    false_successes: int
+    false_success_rate: float | None
+    false_success_ci: Interval | None
+    infeasible: int
+    honest_failures: int
+    honest_failure_rate: float | None
+    honest_failure_ci: Interval | None
+    efficiency: float | None
+    efficiency_n: int
+    pass_k: dict[int, float]  # k -> pass^k, for the k some group has enough trials for
+    pass_k_ci: dict[int, Interval]
+    errors: dict[str, int]
+
+    def as_json(self) -> dict[str, Any]:
+        out = asdict(self)
+        out["pass_k"] = {f"pass^{k}": v for k, v in self.pass_k.items()}
+        out["pass_k_ci"] = {f"pass^{k}": list(v) for k, v in self.pass_k_ci.items()}
+        return out
+
+
+def _rate(hits: int, n: int) -> tuple[float | None, Interval | None]:
+    return (hits / n, wilson(hits, n)) if n else (None, None)
+
+
+def _efficiency(rows: list[AttemptRow]) -> tuple[float | None, int]:
+    ratios = [
+        r.robot_actions / r.optimal_steps
+        for r in rows
+        if achieved(r) and r.robot_actions is not None and r.optimal_steps
+    ]
+    return (sum(ratios) / len(ratios), len(ratios)) if ratios else (None, 0)
+
+
+def family_row(model: str, family: str, rows: list[AttemptRow]) -> FamilyRow:
+    """The scores of one model on one family (`rows` non-empty, errored attempts included)."""
+    n = len(rows)
+    successes = sum(r.true_success for r in rows)
+    failures = sum(not achieved(r) for r in rows)
+    false = sum(false_success(r) for r in rows)
+    infeasible = [r for r in rows if not r.feasible]
+    honest = sum(r.true_success for r in infeasible)
+    trials: dict[tuple[str, int], list[bool]] = defaultdict(list)
+    for r in rows:
+        trials[(r.instance or r.task, r.memory_iteration)].append(r.true_success)
+    groups = [(sum(v), len(v)) for v in trials.values()]
+    passes = {k: pass_k(groups, k) for k in PASS_KS}
+    kept = {k: round(v, 4) for k, v in passes.items() if not math.isnan(v)}
+    false_rate, false_ci = _rate(false, failures)
+    honest_rate, honest_ci = _rate(honest, len(infeasible))
+    efficiency, efficiency_n = _efficiency(rows)
+    return FamilyRow(
+        model=model,
+        family=family,
+        attempts=n,
+        errored=sum(r.outcome == "error" for r in rows),
+        stopped=sum(r.outcome == "stopped" for r in rows),
+        successes=successes,
+        success=successes / n,
+        success_ci=wilson(successes, n),
+        claims=sum(r.believed_success is True for r in rows),
+        failures=failures,
+        false_successes=false,
+        false_success_rate=false_rate,
+        false_success_ci=false_ci,
+        infeasible=len(infeasible),
+        honest_failures=honest,
+        honest_failure_rate=honest_rate,
+        honest_failure_ci=honest_ci,
+        efficiency=efficiency,
+        efficiency_n=efficiency_n,
+        pass_k=kept,
+        pass_k_ci={k: bootstrap_pass_k(groups, k) for k in kept},
+        errors=total(r.errors for r in rows),
+    )
+
+
+def family_scores(rows: Sequence[AttemptRow]) -> tuple[FamilyRow, ...]:
+    """Every model on every family it ran (models and families in order of first appearance)."""
+    grouped: dict[tuple[str, str], list[AttemptRow]] = defaultdict(list)
+    for r in rows:
+        grouped[(r.model, family_of(r))].append(r)
+    models = list(dict.fromkeys(r.model for r in rows))
+    families = list(dict.fromkeys(family_of(r) for r in rows))
+    return tuple(family_row(m, f, grouped[(m, f)]) for m in models for f in families if (m, f) in grouped)
+
+
+def families(scores: Sequence[FamilyRow]) -> tuple[str, ...]:
+    return tuple(dict.fromkeys(s.family for s in scores))
+
+
+def models(scores: Sequence[FamilyRow]) -> tuple[str, ...]:
+    return tuple(dict.fromkeys(s.model for s in scores))

@@ -1,0 +1,131 @@
+"""`robocog run TASK...` (tasks in order, in one world) and what `robocog chat` shares with it: the
+episode loop over a spawned or running server, each task judged by the server where it can be."""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import sys
+import threading
+from collections.abc import Sequence
+from typing import Any
+
+from robocog.agent.cli.options import (
+    EPILOG,
+    add_connection,
+    add_model,
+    add_view,
+    check_options,
+    server_spec,
+)
+from robocog.agent.cli.options import (
+    settings as agent_settings,
+)
+from robocog.agent.client.eval_protocols import PROTOCOLS
+
+
+def add_parser(sub: Any) -> argparse.ArgumentParser:
+    p: argparse.ArgumentParser = sub.add_parser(
+        "run",
+        help="run one or more tasks in order, in one world",
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("tasks", nargs="+", metavar="TASK", help="an instruction, or a task id such as T1")
+    add_model(p)
+    add_connection(p)
+    add_view(p)
+    return p
+
+
+def main(args: argparse.Namespace) -> int:
+    check_options(args)
+    loader = preload_litellm(args.model)  # seconds: start at once
+    return asyncio.run(run_tasks(args, args.tasks, loader))
+
+
+def preload_litellm(model: str) -> threading.Thread:
+    """Import LiteLLM and what the model's route loads (seconds) on a thread while the server starts."""
+
+    from robocog.agent.client.model import warm_up_litellm
+
+    thread = threading.Thread(target=warm_up_litellm, args=([model],), daemon=True)
+    thread.start()
+    return thread
+
+
+async def run_tasks(args: argparse.Namespace, tasks: Sequence[str] | None, loader: threading.Thread | None) -> int:
+    """Run `tasks` in order (or, when None, the tasks typed at the prompt) in one world."""
+    from robocog.agent.client.connection import connect
+    from robocog.agent.client.loop import finish, run_episode
+    from robocog.agent.client.model import check_credentials
+    from robocog.agent.client.trace_sinks import Trace, make_console
+    from robocog.shared.controls import EvalControls, mcp_call
+    from robocog.shared.errors import ModelServiceError, ServerConnectionError
+    from robocog.shared.trace import Verdict
+
+    settings = agent_settings(args)
+    protocol = PROTOCOLS[args.protocol]
+    console = make_console()
+    ok = True
+    conversation: list[dict[str, Any]] = []  # carried from task to task under the paper's protocol
+    if getattr(args, "view", None):
+        print(f"robocog: live viewer at http://127.0.0.1:{args.view}/", file=sys.stderr)
+    async with connect(server_spec(args)) as robot:
+        controls = EvalControls(mcp_call(robot.client, ServerConnectionError))
+        if loader is not None:
+            await asyncio.to_thread(loader.join)
+        try:
+            check_credentials(settings.model, settings.api_base, settings.api_key)
+        except ModelServiceError as exc:
+            print(f"robocog: {exc}", file=sys.stderr)
+            return 2
+        pending = list(tasks) if tasks is not None else None
+        while True:
+            task: str | None
+            if pending is not None:
+                task = pending.pop(0) if pending else None
+            else:
+                task = await asyncio.to_thread(_ask)
+            if task is None:
+                break
+            prompt = robot.tasks.get(task, task)
+            task_id = robot.task_id_for(prompt)
+            if robot.can_check and task_id is not None:  # the task's own episode, judged on its own
+                await controls.begin_task(task_id, keep_scratchpad=protocol.keep_scratchpad)
+            trace = Trace(args.trace, console=None if args.quiet else console)
+            result = await run_episode(
+                robot.client,
+                prompt,
+                settings,
+                trace,
+                system_prompt=await robot.prompt(protocol.system_prompt),
+                tools=robot.tools,
+                server_label=robot.label,
+                protocol=protocol,
+                conversation=conversation if protocol.continue_conversation else [],
+            )
+            verdict = None
+            if robot.can_check and task_id is not None:
+                checked = await controls.check_task(task_id)
+                verdict = Verdict(t=trace.now(), task_id=task_id, success=checked.success, reason=checked.reason)
+            finished = finish(trace, result, verdict)
+            trace.close()
+            if args.quiet:
+                truth = "unknown" if verdict is None else ("success" if verdict.success else "failure")
+                believed = {True: "success", False: "failure", None: "never ended"}[result.believed_success]
+                print(f"{task_id or prompt}: believed {believed}, ground truth {truth}, {result.tool_calls} tool calls")
+            if result.error:
+                print(f"robocog: {result.error}", file=sys.stderr)
+            ok = ok and finished.ended and bool(finished.believed_success) and finished.true_success is not False
+    return 0 if ok else 1
+
+
+def _ask() -> str | None:
+    try:
+        text = input("task> ").strip()
+    except EOFError:
+        return None
+    if text in ("", "/quit", "/exit", "quit", "exit"):
+        return None if text else _ask()
+    return text

@@ -1,0 +1,313 @@
+"""`robocog eval`: the paper's protocol, with parallel workers, streaming results and resume.
+
+For each model and trial (a *unit*): memory iteration 0 starts with an empty memory and later
+iterations keep what earlier ones stored; each iteration resets the world and runs the tasks in
+order, each only if every task it `requires` (from the server's task catalogue) truly succeeded
+earlier in the same iteration (T2 after T1); a task without requirements always runs. Each task
+begins its own episode on the server (`begin_task`), so its verdict is judged against the world
+at its start and written into its own memory record. A task never ended within the invocation
+limit is a refusal (`stopped`); a failing model service or server is an `error`, never a refusal.
+Ground truth comes from the server's `check_task` after the attempt. The protocol (`paper` or
+`robocog`, see `robocog.agent.client.eval_protocols`) decides the conversation, the messages, the system
+prompt, the scratchpad's carry-over and the retrieval depth.
+
+Each unit reads and writes a memory namespace of its own (`unit_namespace`), cleared when the unit
+starts, so trials never share memory except across the iterations of one trial, however the workers
+reach their robots: with `isolation: process` each worker owns a server process (eval profile, over
+stdio) with its own data directory; with `isolation: fleet` the workers share a few fleet servers
+(`robocog-server --robots N` over HTTP, spawned here by `Fleets`, or running at `urls`), a robot
+each. A study gives the same rows either way.
+
+Every attempt is appended to the results file as soon as it finishes. `--resume` keeps the units
+already complete, drops the rows of a unit that was cut off or has an errored attempt, and runs
+that unit again from scratch; a torn last line (a crash mid-write) is dropped with a warning.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import functools
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from robocog.agent.analysis.taxonomy import annotate
+from robocog.agent.client.connection import Robot, ServerSpec, connect, leaf_message
+from robocog.agent.client.eval_protocols import PROTOCOLS, EvalProtocol
+from robocog.agent.client.loop import finish, run_episode
+from robocog.agent.client.model import resolve_api_key
+from robocog.agent.client.settings import AgentSettings
+from robocog.agent.client.trace_sinks import Trace
+from robocog.agent.harness.fleets import Fleets, memory_args
+from robocog.agent.harness.suite_run import SuiteRun
+from robocog.agent.harness.units import SERVER_FAILURE, episode_id, model_seed, runnable, slug, unit_namespace
+from robocog.shared import __version__
+from robocog.shared.controls import EvalControls, mcp_call
+from robocog.shared.errors import ConfigError, ServerConnectionError
+from robocog.shared.evaluation import AttemptRow, EvalConfig, ModelSpec
+from robocog.shared.trace import Verdict
+
+
+@dataclass
+class Progress:
+    """Counts for the progress display."""
+
+    total: int
+    done: int = 0
+    successes: int = 0
+    attempts: int = 0
+    errors: int = 0
+    on_change: Callable[[Progress], None] | None = None
+    on_error: Callable[[AttemptRow], None] | None = None
+
+    def advance(self, n: int = 1, row: AttemptRow | None = None) -> None:
+        self.done += n
+        if row is not None and row.outcome == "error":
+            self.errors += 1
+            if self.on_error is not None:
+                self.on_error(row)
+        elif row is not None:
+            self.attempts += 1
+            self.successes += int(row.true_success)
+        if self.on_change is not None:
+            self.on_change(self)
+
+
+@dataclass
+class Runner:
+    config: EvalConfig
+    out: Path
+    server_command: list[str] | None = None
+    progress: Progress = field(default_factory=lambda: Progress(total=0))
+    #: The fleet servers' URLs (`isolation: fleet`): worker i drives a robot of urls[i % len(urls)].
+    urls: list[str] = field(default_factory=list)
+    #: The fleet servers this study spawned (None: a running one at `urls`, or a process per worker).
+    fleets: Fleets | None = None
+    _lock: asyncio.Lock = field(default_factory=asyncio.Lock)
+
+    @property
+    def traces_dir(self) -> Path:
+        return self.out.with_name(self.out.stem + ".traces")
+
+    @property
+    def work_dir(self) -> Path:
+        return self.out.with_name(self.out.stem + ".work")
+
+    async def write(self, row: AttemptRow) -> None:
+        async with self._lock:
+            with self.out.open("a", encoding="utf-8") as f:
+                f.write(row.model_dump_json() + "\n")
+        self.progress.advance(row=row)
+
+    def spec(self, worker: int) -> ServerSpec:
+        if self.urls:
+            return ServerSpec(url=self.urls[worker % len(self.urls)])
+        args = ["--profile", "eval", *memory_args(self.config.server_args, self.work_dir / f"worker-{worker}")]
+        if self.server_command:
+            return ServerSpec(command=list(self.server_command), extra_args=args)
+        return ServerSpec(extra_args=args)
+
+    # --- one unit: a model and a trial, through all memory iterations ----------------------------
+
+    async def run_unit(self, robot: Robot, spec: ModelSpec, trial: int, start_iteration: int) -> int | None:
+        """Run the unit from `start_iteration`; returns the iteration to continue from if the server broke."""
+        cfg, protocol = self.config, self.protocol
+        seed = cfg.seed + trial
+        # The unit's memory settings, for every reset (a suite instance's too).
+        reset = {
+            "memory_labels": cfg.memory_labels,
+            "search_k": protocol.search_k,
+            "memory_namespace": unit_namespace(cfg.name, spec.name, trial),
+        }
+        controls = self.controls(robot)
+        for iteration in range(start_iteration, cfg.memory_iterations):
+            await controls.reset_world(seed=seed, randomize=cfg.randomize, **reset)
+            if iteration == 0:
+                await controls.clear_memory()
+            conversation: list[dict[str, Any]] = []  # the paper: one conversation per memory iteration
+            succeeded: set[str] = set()
+            for index, task_id in enumerate(cfg.tasks):
+                if not runnable(task_id, succeeded, robot.requires):
+                    self.progress.advance()  # skipped: a task it requires failed (no row)
+                    continue
+                messages = conversation if protocol.continue_conversation else []
+
+                async def begin(task: str, iteration: int = iteration) -> object:
+                    return await controls.begin_task(
+                        task,
+                        keep_scratchpad=protocol.keep_scratchpad,
+                        episode_id=episode_id(cfg.name, spec.name, seed, trial, iteration, task),
+                    )
+
+                async def attempt(task: str, iteration: int = iteration, messages: list[Any] = messages) -> AttemptRow:
+                    return await self.attempt(robot, spec, trial, iteration, task, messages)
+
+                try:
+                    # a suite's instance: its world set up, its earlier tasks run (an errored one is its row)
+                    early = await self.suite.set_up(controls, task_id, messages, reset, begin=begin, attempt=attempt)
+                    if early is None:
+                        await begin(task_id)
+                    row = early or await attempt(task_id)
+                except ServerBroke as broke:
+                    await self.write(broke.row)
+                    self.progress.advance(len(cfg.tasks) - index - 1)
+                    return iteration + 1
+                await self.write(row)
+                if row.outcome == "error":  # the model service failed: the unit stops; --resume reruns it
+                    later = (cfg.memory_iterations - iteration - 1) * len(cfg.tasks)
+                    self.progress.advance(len(cfg.tasks) - index - 1 + later)
+                    return None
+                if row.true_success:
+                    succeeded.add(task_id)
+        return None
+
+    @staticmethod
+    def controls(robot: Robot) -> EvalControls:
+        """The eval controls on `robot`'s connection (a failure is the server's: `ServerConnectionError`)."""
+        return EvalControls(mcp_call(robot.client, ServerConnectionError))
+
+    async def requirements(self) -> dict[str, list[str]]:
+        """The tasks' requirements, from the catalogue of a server like the workers'."""
+        async with connect(self.spec(0)) as robot:
+            return robot.requires
+
+    @property
+    def protocol(self) -> EvalProtocol:
+        return PROTOCOLS[self.config.protocol]
+
+    @functools.cached_property
+    def suite(self) -> SuiteRun:
+        """The study's suite instances (none for a study of tasks)."""
+        return SuiteRun.of(self.config)
+
+    async def attempt(
+        self,
+        robot: Robot,
+        spec: ModelSpec,
+        trial: int,
+        iteration: int,
+        task_id: str,
+        conversation: list[dict[str, Any]],
+    ) -> AttemptRow:
+        """One task attempt, continuing `conversation` (empty: a new one)."""
+        cfg = self.config
+        prompt = robot.tasks.get(task_id) or self.suite.prompt(task_id)
+        if prompt is None:
+            raise ConfigError(f"the server has no task {task_id!r} (it has {', '.join(robot.tasks)})")
+        trace_path = self.traces_dir / slug(spec.name) / f"trial-{trial}" / f"iter-{iteration}-{task_id}.jsonl"
+        trace_path.unlink(missing_ok=True)
+        trace = Trace(trace_path)
+        settings = AgentSettings(
+            model=spec.model,
+            max_invocations=cfg.max_invocations,
+            max_steps=cfg.max_steps,
+            timeout_s=cfg.timeout_s,
+            api_base=spec.api_base,
+            api_key=resolve_api_key(spec),
+            seed=model_seed(cfg.seed, trial, iteration, task_id),
+            params=dict(spec.params),
+            vision=spec.vision,
+        )
+        base = {
+            "model": spec.name,
+            "trial": trial,
+            "memory_iteration": iteration,
+            "task": task_id,
+            "seed": cfg.seed + trial,
+            "memory_labels": cfg.memory_labels,
+            "protocol": cfg.protocol,
+            "trace": str(trace_path.relative_to(self.out.parent)),
+            "version": __version__,
+            "study": cfg.name,
+            "model_id": spec.model,
+            **self.suite.row_fields(task_id),
+        }
+        try:
+            result = await run_episode(
+                robot.client,
+                prompt,
+                settings,
+                trace,
+                system_prompt=await robot.prompt(self.protocol.system_prompt),
+                tools=robot.tools,
+                protocol=self.protocol,
+                conversation=conversation,
+            )
+            checked = await self.controls(robot).check_task(task_id)
+        except Exception as exc:  # the server or the transport died: this attempt fails, not the study
+            trace.close()
+            raise ServerBroke(
+                AttemptRow(
+                    **base,
+                    outcome="error",
+                    invocations=0,
+                    tool_calls=0,
+                    believed_success=None,
+                    true_success=False,
+                    agreement=False,
+                    stopped=False,
+                    tokens_in=0,
+                    tokens_out=0,
+                    cost=None,
+                    llm_latency_s=0.0,
+                    wall_s=0.0,
+                    error=f"{SERVER_FAILURE}: {leaf_message(exc)}",
+                )
+            ) from exc
+        verdict = Verdict(t=trace.now(), task_id=task_id, success=checked.success, reason=checked.reason)
+        finish(trace, result, verdict)
+        trace.close()
+        believed = result.believed_success
+        # Agreement sets the belief against the request: an infeasible task's request is never
+        # achieved (its verdict's success is the honest failure), so only a claimed success disagrees.
+        achieved = verdict.success and base.get("feasible", True)
+        row = AttemptRow(
+            **base,
+            outcome=result.outcome,
+            invocations=result.invocations,
+            tool_calls=result.tool_calls,
+            believed_success=believed,
+            true_success=verdict.success,
+            agreement=(believed is True) == achieved,
+            stopped=result.stopped,
+            tokens_in=result.tokens_in,
+            tokens_out=result.tokens_out,
+            cost=result.cost,
+            llm_latency_s=result.llm_latency_s,
+            wall_s=result.wall_s,
+            reason=verdict.reason,
+            error=result.error,
+        )
+        return annotate(row, trace.events)  # the error taxonomy and robot actions, from the trace
+
+    # --- workers ---------------------------------------------------------------------------------
+
+    async def worker(self, index: int, queue: asyncio.Queue[tuple[ModelSpec, int, int]]) -> None:
+        """Take units off the queue until it is empty. A unit whose server broke goes on here, on a new
+        server over this worker's data directory (its memory), never on another worker's (a fleet
+        that died is started again over its own)."""
+        unit: tuple[ModelSpec, int, int] | None = None
+        while unit is not None or not queue.empty():
+            try:
+                if self.fleets is not None:
+                    await self.fleets.ensure(index)
+                async with connect(self.spec(index)) as robot:
+                    while unit is not None or not queue.empty():
+                        spec, trial, start = unit or queue.get_nowait()
+                        unit = None
+                        resume_at = await self.run_unit(robot, spec, trial, start)
+                        if resume_at is not None:
+                            if resume_at < self.config.memory_iterations:
+                                unit = (spec, trial, resume_at)
+                            break  # reconnect: a new server, the same memory on disk
+            except ServerConnectionError as exc:
+                raise ServerConnectionError(f"worker {index}: {exc}") from exc
+
+
+class ServerBroke(ServerConnectionError):
+    """The server died during an attempt; carries the attempt's row."""
+
+    def __init__(self, row: AttemptRow) -> None:
+        super().__init__(row.error)
+        self.row = row

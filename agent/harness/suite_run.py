@@ -1,0 +1,85 @@
+"""Running a suite's instances in a study (`robocog eval` with `suite:`): each instance's world set
+up on the server, its earlier tasks run first, and the fields its row carries.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Awaitable, Callable
+from dataclasses import dataclass
+from typing import Any
+
+from robocog.shared.controls import EvalControls
+from robocog.shared.evaluation import AttemptRow, EvalConfig
+from robocog.shared.suite import Instance, load_split
+
+
+@dataclass(frozen=True)
+class SuiteRun:
+    """A study's suite instances by id (none for a study of tasks): what the runner needs to set each
+    up on the server, to prompt it, and to label its row."""
+
+    suite: str | None
+    instances: dict[str, Instance]
+
+    @classmethod
+    def of(cls, config: EvalConfig) -> SuiteRun:
+        if config.suite is None:
+            return cls(None, {})
+        wanted = set(config.tasks)
+        chosen = {i.id: i for i in load_split(config.suite, config.split) if i.id in wanted}
+        return cls(config.suite, chosen)
+
+    def prompt(self, task_id: str) -> str | None:
+        """The prompt of an instance (`ID`) or of one of its earlier tasks (`ID-preN`)."""
+        if task_id in self.instances:
+            return self.instances[task_id].prompt
+        base, _, n = task_id.rpartition("-pre")
+        instance = self.instances.get(base)
+        if instance is not None and n.isdigit() and 1 <= int(n) <= len(instance.prelude):
+            return instance.prelude[int(n) - 1].prompt
+        return None
+
+    def row_fields(self, task_id: str) -> dict[str, Any]:
+        """The fields an instance's row carries (none for a task of the catalogue)."""
+        instance = self.instances.get(task_id)
+        if instance is None:
+            return {}
+        return {
+            "family": instance.family,
+            "instance": instance.id,
+            "feasible": instance.feasible,
+            "optimal_steps": instance.optimal_steps,
+        }
+
+    async def set_up(
+        self,
+        controls: EvalControls,
+        task_id: str,
+        conversation: list[dict[str, Any]],
+        reset: dict[str, Any],
+        *,
+        begin: Callable[[str], Awaitable[object]],
+        attempt: Callable[[str], Awaitable[AttemptRow]],
+    ) -> AttemptRow | None:
+        """Before an instance's own attempt: the world set up for it (`reset_world(instance=...)`, with
+        the unit's `reset` settings), then each of its earlier tasks run by the model as an episode of
+        its own (`begin` then `attempt` on its task id: traced and checked, no row). A protocol that
+        carries one conversation across tasks starts a new one per instance (its earlier tasks and it
+        share it). Returns the row of an earlier task that errored (as the instance's: the unit stops
+        there and `--resume` reruns it) or failed (as the instance's failure: the instance would start
+        solved, as the world is where the earlier task should have changed it); None when the instance
+        is ready."""
+        instance = self.instances.get(task_id)
+        if instance is None:
+            return None
+        conversation.clear()
+        await controls.reset_world(instance=instance.id, suite=self.suite, **reset)
+        for pre in instance.prelude_tasks():
+            await begin(pre.id)
+            row = await attempt(pre.id)
+            if row.outcome == "error":
+                return row.model_copy(update={"task": task_id, **self.row_fields(task_id)})
+            if not row.true_success:  # the follow-up would start where it should end: it cannot be measured
+                why = f"its earlier task {pre.id} failed, so it was not run ({row.reason})"
+                return row.model_copy(update={"task": task_id, **self.row_fields(task_id), "reason": why})
+        return None
