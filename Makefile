@@ -55,7 +55,7 @@ bench: $(STAMP) chromium ## Print the performance figures as JSON
 	$(BIN)/python tests/bench/run.py
 
 fuzz: $(STAMP) ## Attack the server: a long Hypothesis run, then 25,000 hostile calls and 32 HTTP clients (JSON)
-	ROBOCOG_FUZZ=long $(BIN)/python -m pytest -q tests/test_fuzz.py
+	ROBOCOG_FUZZ=long $(BIN)/python -m pytest -q tests/integration/test_fuzz.py
 	$(BIN)/python tests/bench/fuzz.py
 
 lint: $(STAMP) $(TYPES) ## ruff check + format check, then mypy (shared strict; server, agent, tests)

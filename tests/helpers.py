@@ -74,6 +74,11 @@ PAPER_POSITIONS = {
     "Kitchen Area Left": {"floor"},
 }
 
+#: The tests' folder, its data files, and the repository's root.
+TESTS_DIR = Path(__file__).resolve().parent
+DATA = TESTS_DIR / "data"
+ROOT = TESTS_DIR.parent
+
 # --- the paper's tasks ---------------------------------------------------------------------------
 
 T1 = "Put away all the items into the shelf."

@@ -5,7 +5,7 @@ that anything can be sent: valid actions, hostile arguments of every type (texts
 control characters, lone surrogates, huge numbers, NaN, deep nesting), unknown tools and methods,
 odd resource URIs, random resets, begin_task and end_task, and lines that are not JSON-RPC at all.
 After every call the world's ground truth (robocog://world/state) is checked against the invariants
-of tests/test_fuzz.py; a dead server is counted and started again. Per call: the wall time, and the
+of tests/integration/test_fuzz.py; a dead server is counted and started again. Per call: the wall time, and the
 server's CPU time (utime + stime of /proc/PID/stat, all its threads) from sending to the answer.
 RSS (VmRSS) is sampled every 1,000 calls.
 

@@ -24,7 +24,6 @@ import os
 from collections import Counter
 from collections.abc import Iterator
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any, ClassVar
 
 import anyio
@@ -41,6 +40,7 @@ from mcp_types import CallToolResult
 from robocog.server.app import build_server
 from robocog.server.config import SessionConfig
 from robocog.shared.results import WorldState
+from tests.helpers import ROOT
 
 #: A call that takes longer than this is a hung server (the largest hostile text is a few MB).
 CALL_TIMEOUT_S = 120.0
@@ -51,7 +51,7 @@ def fuzz_settings() -> settings:
     long = os.environ.get("ROBOCOG_FUZZ") == "long"
     examples = int(os.environ.get("ROBOCOG_FUZZ_EXAMPLES", 250 if long else 25))
     steps = int(os.environ.get("ROBOCOG_FUZZ_STEPS", 50 if long else 20))
-    database = DirectoryBasedExampleDatabase(Path(__file__).resolve().parent.parent / ".cache" / "hypothesis")
+    database = DirectoryBasedExampleDatabase(ROOT / ".cache" / "hypothesis")
     return settings(
         max_examples=examples,
         stateful_step_count=steps,

@@ -27,6 +27,7 @@ from robocog.shared.trace import (
     Verdict,
     dump_event,
 )
+from tests.helpers import DATA
 
 TOOLS = ["look_around", "move_to", "grab", "place", "search_memory", "end_task"]
 LOOK = {
@@ -254,7 +255,7 @@ def test_a_trace_file_round_trips_and_totals_keep_the_category_order(tmp_path: P
 
 def test_annotate_fills_a_row_from_its_trace_by_the_rows_feasibility_and_optimum() -> None:
     events = Script().ok("move_to", location="Kitchen Shelf").ok("grab", object="mug").end("success", verdict=False)
-    data = json.loads((Path(__file__).parent / "data" / "results_paper.jsonl").read_text().splitlines()[0])
+    data = json.loads((DATA / "results_paper.jsonl").read_text().splitlines()[0])
     feasible = annotate(AttemptRow.model_validate({**data, "optimal_steps": 1}), events)
     assert feasible.robot_actions == 2
     assert _only(feasible.errors) == {"missing_step": 1, "additional_step": 1}

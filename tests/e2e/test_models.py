@@ -32,6 +32,7 @@ from robocog.shared.errors import ModelServiceError
 from robocog.shared.evaluation import ModelSpec
 from robocog.shared.trace import ModelTurn, ToolResult
 from tests.fake_llm import Fail, FakeLLM, Reply, Request, Turn, planner_script
+from tests.helpers import ROOT
 
 pytestmark = pytest.mark.anyio
 
@@ -411,7 +412,7 @@ async def test_paper_yaml_runs_all_four_models_without_an_errored_attempt(fake: 
     from robocog.agent.harness.study import run_eval
     from robocog.shared.evaluation import load_config
 
-    config = load_config(Path(__file__).parents[1] / "assets" / "eval" / "paper.yaml")
+    config = load_config(ROOT / "assets" / "eval" / "paper.yaml")
     assert config.protocol == "paper" and len(config.models) == 4
     sampling = {m.name: m.params.get("temperature") for m in config.models}
     assert sampling == {"GPT-4.1": None, "Claude Sonnet 4": None, "Qwen3 Coder": 0.6, "DeepSeek V3.1": 0.6}

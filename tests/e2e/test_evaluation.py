@@ -23,10 +23,10 @@ from robocog.agent.harness.units import unit_complete
 from robocog.shared.errors import ConfigError
 from robocog.shared.evaluation import AttemptRow, EvalConfig, ModelSpec, load_config
 from robocog.shared.trace import ToolResult, read_trace
+from tests.helpers import DATA, ROOT
 
 pytestmark = pytest.mark.anyio
-DATA = Path(__file__).parent / "data"
-ASSETS = Path(__file__).parent.parent / "assets" / "eval"
+ASSETS = ROOT / "assets" / "eval"
 
 
 def study(*models: ModelSpec, **overrides: object) -> EvalConfig:

@@ -26,8 +26,8 @@ from robocog.agent.analysis.results_file import read_rows
 from robocog.agent.analysis.stats import Summary, TableRow, by_protocol, shorten, summarise
 from robocog.agent.analysis.tables_csv import upstream_task
 from robocog.shared.evaluation import AttemptRow
+from tests.helpers import DATA
 
-DATA = Path(__file__).parent / "data"
 PAPER = DATA / "results_paper.jsonl"
 FIGURES = (
     "paper_fig3_confusion.png",

@@ -24,8 +24,7 @@ from robocog.agent.analysis.stats import pass_hat_k
 from robocog.agent.analysis.taxonomy import CATEGORIES
 from robocog.shared.evaluation import AttemptRow
 from robocog.shared.trace import RunStarted, ToolCall, ToolResult, Verdict, dump_event
-
-DATA = Path(__file__).parent / "data"
+from tests.helpers import DATA
 
 
 def row(

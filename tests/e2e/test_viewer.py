@@ -25,11 +25,9 @@ from mcp.client.stdio import StdioServerParameters, stdio_client
 from mcp_types import CallToolResult, ImageContent, TextContent
 
 from robocog.server.events import EventBus
-from tests.helpers import server_command
+from tests.helpers import DATA, ROOT, server_command
 
-ROOT = Path(__file__).resolve().parent.parent
 SCREENSHOTS = ROOT / "build" / "screenshots"
-DATA = Path(__file__).parent / "data"
 INSTALL = (
     "the browser tests need Chromium and Playwright: `apt-get install chromium` (as root; `make test` does it) "
     "and `pip install -e '.[browser]'`"
