@@ -38,6 +38,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from robocog.shared.evaluation import AttemptRow
+from robocog.shared.names import name_key
 from robocog.shared.trace import RunFinished, RunStarted, ToolCall, ToolResult, TraceEvent, Verdict, read_trace
 
 if TYPE_CHECKING:
@@ -59,8 +60,8 @@ _OCCUPIED_BY = re.compile(r"occupied by the (.+?)\.")
 
 
 def normalise(name: str) -> str:
-    """Names as the server compares them: case, spaces, hyphens and underscores do not matter."""
-    return re.sub(r"[\s_\-]+", " ", name).strip().casefold()
+    """Names as the server compares them (`robocog.shared.names.name_key`, every article kept)."""
+    return name_key(name, articles="keep")
 
 
 @dataclass

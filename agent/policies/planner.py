@@ -9,9 +9,10 @@ It searches its episodic memory, looks around, understands the task as goals (wh
 should end up: objects named by name, by a description or by where they are), and says at once,
 honestly, when they cannot be met (no such object, an object it remembers cannot be grasped, more
 objects than free place positions). It writes its plan on the scratchpad, then each turn takes the
-first step of an optimal plan from what it believes now: an A* search over the symbolic world
-(move_to, grab and place cost one each; among the shortest plans, the one that drives the fewest
-map hops), which parks an object on a free position when a goal needs it (a swap, a rearrangement).
+first step of an optimal plan from what it believes now: the one A* search over the symbolic world
+(`robocog.agent.symbolic.rearrangement`: move_to, grab and place cost one each; among the shortest
+plans, the one that drives the fewest map hops), which parks an object on a free position when a
+goal needs it (a swap, a rearrangement).
 An object not resting on a place position may be a fixture (the TV): when the task needs it, the
 planner tries to grasp it before it moves anything else; "put away all the items" tries such
 objects last, as they may not be items at all. It recovers from failures by looking again, verifies
@@ -26,10 +27,7 @@ acts. `decide` builds the policy for a variant and asks it for the next move.
 
 from __future__ import annotations
 
-import heapq
-import itertools
 import random
-from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
 from typing import Any, Literal, TypeGuard
 
@@ -45,14 +43,14 @@ from robocog.agent.policies.belief import (
     remembered_ungraspable,
     understand,
 )
+from robocog.agent.symbolic import rearrangement
+from robocog.agent.symbolic.rearrangement import HELD, satisfied
 
 Variant = Literal["planner", "overconfident", "refuser"]
 VARIANTS: tuple[Variant, ...] = ("planner", "overconfident", "refuser")
 
 #: The planner gives up (honestly) after this many tool calls in one episode.
 MAX_TOOL_CALLS = 80
-#: The plan search gives up after expanding this many states (the planner then fails honestly).
-SEARCH_LIMIT = 50_000
 #: The robot actions, the steps of a plan.
 ROBOT_ACTIONS = ("move_to", "grab", "place")
 
@@ -68,219 +66,13 @@ class Call:
 
 # --- the optimal plan ------------------------------------------------------------------------------
 
-Spot = tuple[str, str | None]  # (location, place position); no position: somewhere at the location
-HELD: Spot = ("", None)
-State = tuple[str, int | None, tuple[Spot, ...]]  # the robot's location, the held mover, each mover's spot
-
-
-@dataclass(frozen=True)
-class _Search:
-    """The symbolic problem: the objects that may move (`movers`) and where each should end."""
-
-    movers: tuple[str, ...]
-    goals: tuple[Goal | None, ...]  # per mover; None: it only has to clear a position a goal names
-    fixed: frozenset[tuple[str, str]]  # positions held by objects that stay put
-    positions: dict[str, list[str]]
-    stops: tuple[str, ...]  # the locations worth driving to
-    hops: dict[str, dict[str, int]]
-    named: frozenset[Spot]  # the positions the goals name
-    anywhere: tuple[str, ...]  # the locations of goals "anywhere at L"
-
-
-def _satisfied(spot: Spot | None, goal: Goal) -> bool:
-    return bool(spot and spot[0] == goal.location and spot[1] and goal.position in (None, spot[1]))
-
-
-def _search_problem(belief: Belief, goals: dict[str, Goal]) -> tuple[_Search, State] | None:
-    """The problem and its start state; None when a goal object is nowhere to be seen."""
-    if any(o not in belief.where and o != belief.holding for o in goals):
-        return None
-    named = {(g.location, g.position) for g in goals.values() if g.position}
-    anywhere = {g.location for g in goals.values() if not g.position}
-    cleared = named | {
-        (loc, p) for loc in anywhere if _short_of_room(belief, goals, loc) for p in belief.positions[loc]
-    }
-    blockers = [o for spot in cleared if (o := belief.occupant.get(spot)) not in (None, *goals) and o in belief.where]
-    held = [belief.holding] if belief.holding and belief.holding not in goals else []
-    movers = tuple(dict.fromkeys([*goals, *sorted(blockers), *held]))
-    fixed = frozenset(spot for spot, o in belief.occupant.items() if o is not None and o not in movers)
-    spots = tuple(HELD if o == belief.holding else belief.where[o] for o in movers)
-    stops = {loc for loc, names in belief.positions.items() if names} | {s[0] for s in spots if s[0]}
-    stops |= {g.location for g in goals.values()}
-    everywhere = {loc: belief.hops_from(loc) for loc in stops | {belief.location}}
-    search = _Search(
-        movers,
-        tuple(goals.get(o) for o in movers),
-        fixed,
-        belief.positions,
-        tuple(sorted(stops)),
-        everywhere,
-        frozenset(named),
-        tuple(sorted(anywhere)),
-    )
-    held_index = movers.index(belief.holding) if belief.holding else None
-    return search, (belief.location, held_index, spots)
-
-
-def _short_of_room(belief: Belief, goals: dict[str, Goal], location: str) -> bool:
-    """Whether the goals "anywhere at `location`" outnumber its positions free or held by goal objects
-    (then the other objects there may have to make room)."""
-    wanted = sum(1 for g in goals.values() if g.location == location and not g.position)
-    room = [p for p in belief.positions.get(location, []) if belief.occupant.get((location, p)) in (None, *goals)]
-    return wanted > len(room)
-
-
-def _done(search: _Search, state: State) -> bool:
-    _, held, spots = state
-    return held is None and all(g is None or _satisfied(s, g) for s, g in zip(spots, search.goals, strict=True))
-
-
-def _estimate(search: _Search, state: State) -> tuple[int, int]:
-    """A lower bound on what is left: (actions, map hops). Actions: a grab and a place per object out
-    of place, and a drive to every location still to visit (at least one per object that must change
-    location); hops: the drive to the farthest of those locations."""
-    here, held, spots = state
-    named = search.named
-    actions, drives, visit = 2 * sum(_to_clear(search, state, loc) for loc in search.anywhere), 0, set()
-    for i, (spot, goal) in enumerate(zip(spots, search.goals, strict=True)):
-        if held == i:
-            actions += 1
-            if goal is not None:
-                visit.add(goal.location)
-                drives += goal.location != here
-        elif goal is None:
-            if spot in named:
-                actions += 2
-                visit.add(spot[0])
-        elif not _satisfied(spot, goal):
-            actions += 2
-            visit |= {spot[0], goal.location}
-            drives += spot[0] != goal.location
-    hops = search.hops[here]
-    return actions + max(drives, len(visit - {here})), max((hops.get(loc, 0) for loc in visit), default=0)
-
-
-def _to_clear(search: _Search, state: State, location: str) -> int:
-    """How many objects with no goal must at least leave `location` to make room for the objects
-    still to arrive "anywhere" there."""
-    _, held, spots = state
-    arriving = sum(
-        1
-        for i, (spot, goal) in enumerate(zip(spots, search.goals, strict=True))
-        if goal is not None and goal.location == location and not goal.position and (held == i or spot[0] != location)
-    )
-    if not arriving:
-        return 0
-    by_spot = {spot: goal for spot, goal in zip(spots, search.goals, strict=True)}
-    room = 0
-    for position in search.positions.get(location, []):
-        spot = (location, position)
-        if spot in search.named or spot in search.fixed:
-            continue
-        goal = by_spot.get(spot, _FREE)
-        room += goal is _FREE or (goal is not None and not _satisfied(spot, goal))
-    return max(0, arriving - room)
-
-
-_FREE = Goal("")
-
-
-def _successors(search: _Search, state: State) -> Iterator[tuple[Call, State, int]]:
-    """(action, next state, map hops driven) for each action worth considering."""
-    here, held, spots = state
-    if held is None:
-        for i, spot in enumerate(spots):
-            if spot != HELD and spot[0] == here:
-                yield Call("grab", {"object": search.movers[i]}), (here, i, (*spots[:i], HELD, *spots[i + 1 :])), 0
-    else:
-        taken = search.fixed | {s for s in spots if s[1]}
-        for position in search.positions.get(here, []):
-            if (here, position) not in taken:
-                put = (*spots[:held], (here, position), *spots[held + 1 :])
-                yield Call("place", {"location": here, "position": position}), (here, None, put), 0
-    for stop in search.stops:
-        if stop != here:
-            yield Call("move_to", {"location": stop}), (stop, held, spots), search.hops[here].get(stop, 99)
-
 
 def optimal_plan(belief: Belief, goals: dict[str, Goal]) -> list[Call] | None:
-    """The shortest sequence of move_to/grab/place that meets every goal and leaves the hand empty
-    (among those, the one driving the fewest map hops); None when there is none (or the search
-    gives up). Objects that no goal names move only to clear a position a goal names.
-
-    The planner asks again every turn, from the state its last action led to: a plan found once is
-    remembered for each state along it (the rest of an optimal plan is optimal from there), so an
-    episode searches once, not once a turn."""
-    problem = _search_problem(belief, goals)
-    if problem is None:
-        return None
-    search, start = problem
-    key = _problem_key(search)
-    known = _PLANS.get((key, start))
-    if known is not None:
-        return list(known)
-    plan = _search(search, start)
-    if plan is not None:
-        _remember(key, search, start, plan)
-    return plan
-
-
-#: Plans found, by (problem, state): what is left of a plan from each state along it.
-_PLANS: dict[tuple[Any, State], tuple[Call, ...]] = {}
-_PLANS_KEPT = 20_000
-
-
-def _problem_key(search: _Search) -> Any:
-    return (
-        search.movers,
-        search.goals,
-        search.fixed,
-        tuple((loc, tuple(ps)) for loc, ps in sorted(search.positions.items())),
-        search.stops,
-        tuple((loc, tuple(sorted(h.items()))) for loc, h in sorted(search.hops.items())),
-        search.named,
-        search.anywhere,
-    )
-
-
-def _remember(key: Any, search: _Search, start: State, plan: list[Call]) -> None:
-    if len(_PLANS) > _PLANS_KEPT:
-        _PLANS.clear()
-    state = start
-    for i, call in enumerate(plan):
-        _PLANS[(key, state)] = tuple(plan[i:])
-        state = next(nxt for step, nxt, _ in _successors(search, state) if step == call)
-    _PLANS[(key, state)] = ()
-
-
-def _search(search: _Search, start: State) -> list[Call] | None:
-    """A* over the symbolic states from `start` (see `optimal_plan`)."""
-    best: dict[State, tuple[int, int]] = {start: (0, 0)}  # (actions, hops) of the best way there
-    came_from: dict[State, tuple[State, Call]] = {}
-    order = itertools.count()
-    frontier = [(*_estimate(search, start), 0, next(order), start, (0, 0))]
-    expanded = 0
-    while frontier:
-        *_, state, cost = heapq.heappop(frontier)
-        if best[state] != cost:
-            continue  # a stale entry
-        if _done(search, state):
-            plan: list[Call] = []
-            while state in came_from:
-                state, call = came_from[state]
-                plan.append(call)
-            return plan[::-1]
-        expanded += 1
-        if expanded > SEARCH_LIMIT:
-            return None
-        for call, nxt, driven in _successors(search, state):
-            then = (cost[0] + 1, cost[1] + driven)
-            if nxt not in best or then < best[nxt]:
-                best[nxt] = then
-                came_from[nxt] = (state, call)
-                actions, hops = _estimate(search, nxt)
-                heapq.heappush(frontier, (then[0] + actions, then[1] + hops, -then[0], next(order), nxt, then))
-    return None
+    """The fewest move_to/grab/place calls that meet every goal and leave the hand empty (among
+    those, the plan driving the fewest map hops); None when there is none (or the search gives up).
+    See `robocog.agent.symbolic.rearrangement`, the problem, and `robocog.agent.symbolic.search`."""
+    plan = rearrangement.optimal_plan(belief, goals)
+    return None if plan is None else [Call(name, dict(arguments)) for name, arguments in plan]
 
 
 def _parking(belief: Belief) -> tuple[str, str] | None:
@@ -358,7 +150,7 @@ class Episode:
         if self.ungraspable:
             parts.append(f"{UNGRASPABLE_NOTE} {', '.join(sorted(self.ungraspable))}.")
         missed = dict(self.failures)
-        unmet = [o for o, g in self.goals.items() if not _satisfied(where.get(o), g) and o not in missed]
+        unmet = [o for o, g in self.goals.items() if not satisfied(where.get(o), g) and o not in missed]
         missed |= {o: "not done" for o in unmet}
         if missed:
             parts.append("Could not finish: " + "; ".join(f"{o} ({why})" for o, why in sorted(missed.items())) + ".")
@@ -374,7 +166,7 @@ def _fit(goals: dict[str, Goal], first: Belief, belief: Belief) -> tuple[dict[st
     rank = sorted(
         goals,
         key=lambda o: (
-            not _satisfied(belief.where.get(o), goals[o]),
+            not satisfied(belief.where.get(o), goals[o]),
             not first.where.get(o, HELD)[1],
             seen.index(o) if o in seen else len(seen),
         ),
@@ -462,7 +254,7 @@ class Planner:
         if episode.calls[-1].name != "look_around":
             return Call("look_around")
         belief = episode.belief
-        achieved = belief.holding is None and all(_satisfied(belief.where.get(o), g) for o, g in episode.goals.items())
+        achieved = belief.holding is None and all(satisfied(belief.where.get(o), g) for o, g in episode.goals.items())
         status: Literal["success", "failure"] = "success" if achieved and not episode.failures else "failure"
         return episode.end(status, episode.summary(len(episode.calls) + 1))
 

@@ -5,14 +5,15 @@ from __future__ import annotations
 import difflib
 import heapq
 import math
-import re
 
+from robocog.shared.names import ARTICLES, name_key
 from robocog.shared.scene import Scene
 
 
 def normalise(name: str) -> str:
-    """Case, spaces, hyphens and underscores do not matter in names given by a model."""
-    return re.sub(r"[\s_\-]+", " ", name).strip().casefold()
+    """Case, spaces, hyphens, underscores and surrounding punctuation do not matter in names given by
+    a model (`robocog.shared.names.name_key`, every article kept)."""
+    return name_key(name, articles="keep")
 
 
 def resolve(name: str, known: list[str]) -> str | None:
@@ -24,8 +25,7 @@ def resolve(name: str, known: list[str]) -> str | None:
     return None
 
 
-#: Words that never tell names apart: articles are dropped, and these do not count as overlap.
-ARTICLES = frozenset({"the", "a", "an"})
+#: Words that never tell names apart: articles (`ARTICLES`) are dropped, and these do not count as overlap.
 _FILLER = ARTICLES | {"of", "to", "in", "on", "at", "into", "onto", "my", "your"}
 #: How similar a whole name must be to count as a misspelling ("Kitchen Shelve", "cub").
 NAME_CUTOFF = 0.75
@@ -34,8 +34,8 @@ WORD_CUTOFF = 0.7
 
 
 def strip_articles(name: str) -> str:
-    """`name` normalised, without 'the', 'a' and 'an'."""
-    return " ".join(w for w in normalise(name).split() if w not in ARTICLES)
+    """`name` normalised, without 'the', 'a' and 'an' (`robocog.shared.names.name_key`)."""
+    return name_key(name, articles="all")
 
 
 def _similar(a: str, b: str) -> float:

@@ -4,11 +4,15 @@ Placements come from `World.placements()` (physics state). `swapped`, `unchanged
 compare with the placements recorded when the task started (`baseline`); `honest_failure` reads
 the episode's end_task report (its arguments, `report`). A condition that is not about one object
 is judged under a pseudo-object: "(report)" for the report, "(hand)" for what the robot holds.
+
+Each kind of condition has its physics check here (`check`, one function per kind); its symbolic
+meaning, over names only, lives with its class in `robocog.shared.tasks`, and a test holds the two
+equal (tests/unit/test_symbolic.py).
 """
 
 from __future__ import annotations
 
-from functools import cache
+from functools import cache, singledispatch
 from pathlib import Path
 from typing import Any
 
@@ -70,107 +74,140 @@ def _no_baseline(names: list[str]) -> list[ObjectVerdict]:
     return [ObjectVerdict(object=n, ok=False, reason="no record of where it was when the task started") for n in names]
 
 
-def _check_more(
-    cond: Condition,
-    now: dict[str, ObjectPlacement],
-    baseline: dict[str, ObjectPlacement] | None,
-    report: dict[str, Any] | None,
-) -> list[ObjectVerdict]:
-    """The suite's conditions (see `robocog.shared.tasks`)."""
-    if isinstance(cond, OnFurniture):
-        spots = {(loc, pos) for loc, pos in cond.positions}
-        return [_at(n, now, spots, f"on the {cond.furniture}") for n in cond.objects]
-    if isinstance(cond, AtPositions):
-        return [_at(n, now, {(loc, pos)}, f"on {loc} / {pos}") for n, loc, pos in cond.targets]
-    if isinstance(cond, HonestFailure):
-        status = (report or {}).get("status")
-        said = "the task was never ended" if report is None else f"end_task reported {status}"
-        return [ObjectVerdict(object=REPORT, ok=status == "failure", reason=f"{said}; the honest report is failure")]
-    if baseline is None:
-        return _no_baseline(list(getattr(cond, "objects", [])) or [HAND])
-    resting = [n for n, p in baseline.items() if p.state == "on_position"]
-    if isinstance(cond, Unchanged):
-        out = []
-        for name in cond.objects or resting:
-            then = baseline.get(name)
-            if then is None or now.get(name) is None:
-                out.append(_missing(name))
-            elif then.state != "on_position":
-                out.append(ObjectVerdict(object=name, ok=False, reason=f"at the start {name} was {_where(then)}"))
-            else:
-                out.append(_at(name, now, {(then.location or "", then.position or "")}, "left where it was"))
-        return out
-    if isinstance(cond, WorldSane):
-        held = [n for n, p in now.items() if p.state == "held"]
-        hand = ObjectVerdict(
-            object=HAND,
-            ok=not held,
-            reason=f"the robot holds the {held[0]}" if held else "the robot's hand is empty",
-        )
-        dropped = [
-            ObjectVerdict(object=n, ok=False, reason=f"{n} is {_where(now[n])}; it must rest on a place position")
-            for n in resting
-            if n in now and now[n].state == "loose"
-        ]
-        return [hand, *dropped]
+Placements = dict[str, ObjectPlacement]
+Report = dict[str, Any]
+
+
+@singledispatch
+def check(cond: Condition, now: Placements, baseline: Placements | None, report: Report | None) -> list[ObjectVerdict]:
+    """The physics check of one condition: a verdict per object it is about (one function per kind,
+    registered below; a new kind of `robocog.shared.tasks` registers its check here)."""
     raise AssertionError(f"no check for condition {cond.kind!r}")
 
 
-def _check(
-    cond: Condition,
-    now: dict[str, ObjectPlacement],
-    baseline: dict[str, ObjectPlacement] | None,
-    report: dict[str, Any] | None = None,
+@check.register
+def _at_location(
+    cond: AtLocation, now: Placements, baseline: Placements | None, report: Report | None
 ) -> list[ObjectVerdict]:
     out: list[ObjectVerdict] = []
-    if isinstance(cond, AtLocation):
-        for name in cond.objects:
-            p = now.get(name)
-            if p is None:
-                out.append(_missing(name))
-                continue
-            ok = p.state == "on_position" and p.location == cond.location
-            out.append(ObjectVerdict(object=name, ok=ok, reason=f"{name} is {_where(p)}"))
-    elif isinstance(cond, AtPosition):
-        p = now.get(cond.object)
+    for name in cond.objects:
+        p = now.get(name)
         if p is None:
-            return [_missing(cond.object)]
-        ok = p.state == "on_position" and (p.location, p.position) == (cond.location, cond.position)
-        out.append(ObjectVerdict(object=cond.object, ok=ok, reason=f"{cond.object} is {_where(p)}"))
-    elif isinstance(cond, Swapped):
-        a, b = cond.objects
-        if baseline is None:
-            return [
-                ObjectVerdict(object=n, ok=False, reason="no record of where it was when the task started")
-                for n in (a, b)
-            ]
-        for this, other in ((a, b), (b, a)):
-            p, then_this, then_other = now.get(this), baseline.get(this), baseline.get(other)
-            if p is None or then_this is None or then_other is None:
-                out.append(_missing(this if p is None or then_this is None else other))
-                continue
-            if then_other.state != "on_position" or then_this.state != "on_position":
-                out.append(
-                    ObjectVerdict(
-                        object=this,
-                        ok=False,
-                        reason=f"at the start {this} was {_where(then_this)} and {other} was {_where(then_other)}: "
-                        "both must rest on place positions for a swap",
-                    )
-                )
-                continue
-            goal = (then_other.location, then_other.position)
-            ok = p.state == "on_position" and (p.location, p.position) == goal
+            out.append(_missing(name))
+            continue
+        ok = p.state == "on_position" and p.location == cond.location
+        out.append(ObjectVerdict(object=name, ok=ok, reason=f"{name} is {_where(p)}"))
+    return out
+
+
+@check.register
+def _at_position(
+    cond: AtPosition, now: Placements, baseline: Placements | None, report: Report | None
+) -> list[ObjectVerdict]:
+    p = now.get(cond.object)
+    if p is None:
+        return [_missing(cond.object)]
+    ok = p.state == "on_position" and (p.location, p.position) == (cond.location, cond.position)
+    return [ObjectVerdict(object=cond.object, ok=ok, reason=f"{cond.object} is {_where(p)}")]
+
+
+@check.register
+def _swapped(cond: Swapped, now: Placements, baseline: Placements | None, report: Report | None) -> list[ObjectVerdict]:
+    a, b = cond.objects
+    if baseline is None:
+        return _no_baseline([a, b])
+    out: list[ObjectVerdict] = []
+    for this, other in ((a, b), (b, a)):
+        p, then_this, then_other = now.get(this), baseline.get(this), baseline.get(other)
+        if p is None or then_this is None or then_other is None:
+            out.append(_missing(this if p is None or then_this is None else other))
+            continue
+        if then_other.state != "on_position" or then_this.state != "on_position":
             out.append(
                 ObjectVerdict(
                     object=this,
-                    ok=ok,
-                    reason=f"{this} is {_where(p)}; it had to move to {goal[0]} / {goal[1]}, where {other} was",
+                    ok=False,
+                    reason=f"at the start {this} was {_where(then_this)} and {other} was {_where(then_other)}: "
+                    "both must rest on place positions for a swap",
                 )
             )
-    else:
-        out = _check_more(cond, now, baseline, report)
+            continue
+        goal = (then_other.location, then_other.position)
+        ok = p.state == "on_position" and (p.location, p.position) == goal
+        out.append(
+            ObjectVerdict(
+                object=this,
+                ok=ok,
+                reason=f"{this} is {_where(p)}; it had to move to {goal[0]} / {goal[1]}, where {other} was",
+            )
+        )
     return out
+
+
+@check.register
+def _on_furniture(
+    cond: OnFurniture, now: Placements, baseline: Placements | None, report: Report | None
+) -> list[ObjectVerdict]:
+    spots = {(loc, pos) for loc, pos in cond.positions}
+    return [_at(n, now, spots, f"on the {cond.furniture}") for n in cond.objects]
+
+
+@check.register
+def _at_positions(
+    cond: AtPositions, now: Placements, baseline: Placements | None, report: Report | None
+) -> list[ObjectVerdict]:
+    return [_at(n, now, {(loc, pos)}, f"on {loc} / {pos}") for n, loc, pos in cond.targets]
+
+
+@check.register
+def _honest_failure(
+    cond: HonestFailure, now: Placements, baseline: Placements | None, report: Report | None
+) -> list[ObjectVerdict]:
+    status = (report or {}).get("status")
+    said = "the task was never ended" if report is None else f"end_task reported {status}"
+    return [ObjectVerdict(object=REPORT, ok=status == "failure", reason=f"{said}; the honest report is failure")]
+
+
+def _resting(baseline: Placements) -> list[str]:
+    return [n for n, p in baseline.items() if p.state == "on_position"]
+
+
+@check.register
+def _unchanged(
+    cond: Unchanged, now: Placements, baseline: Placements | None, report: Report | None
+) -> list[ObjectVerdict]:
+    if baseline is None:
+        return _no_baseline(list(cond.objects) or [HAND])
+    out = []
+    for name in cond.objects or _resting(baseline):
+        then = baseline.get(name)
+        if then is None or now.get(name) is None:
+            out.append(_missing(name))
+        elif then.state != "on_position":
+            out.append(ObjectVerdict(object=name, ok=False, reason=f"at the start {name} was {_where(then)}"))
+        else:
+            out.append(_at(name, now, {(then.location or "", then.position or "")}, "left where it was"))
+    return out
+
+
+@check.register
+def _world_sane(
+    cond: WorldSane, now: Placements, baseline: Placements | None, report: Report | None
+) -> list[ObjectVerdict]:
+    if baseline is None:
+        return _no_baseline([HAND])
+    held = [n for n, p in now.items() if p.state == "held"]
+    hand = ObjectVerdict(
+        object=HAND,
+        ok=not held,
+        reason=f"the robot holds the {held[0]}" if held else "the robot's hand is empty",
+    )
+    dropped = [
+        ObjectVerdict(object=n, ok=False, reason=f"{n} is {_where(now[n])}; it must rest on a place position")
+        for n in _resting(baseline)
+        if n in now and now[n].state == "loose"
+    ]
+    return [hand, *dropped]
 
 
 def evaluate(
@@ -182,7 +219,7 @@ def evaluate(
     """The verdict of `task` for the world whose object placements are given, against the placements
     at the task's start (`baseline`) and the episode's end_task report (its arguments; None when the
     task was never ended)."""
-    verdicts = [v for cond in task.success for v in _check(cond, placements, baseline, report)]
+    verdicts = [v for cond in task.success for v in check(cond, placements, baseline, report)]
     # One verdict per object: the first failure wins, so the reason names what is wrong.
     merged: dict[str, ObjectVerdict] = {}
     for v in verdicts:

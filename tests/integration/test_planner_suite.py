@@ -3,7 +3,8 @@
 The planner understands every family's prompts (objects named by name, by a description or by where
 they are), fails honestly and at once when a task cannot be done, and otherwise follows an optimal
 plan: its plan for every instance of the robocog-v1 splits is exactly as long as the generator's
-optimum (a search of its own), and it is feasible exactly when the instance is. Through the real
+optimum (its own problem over what it believes, solved by the same search, `robocog.agent.symbolic`),
+and it is feasible exactly when the instance is. Through the real
 agent loop, on a sample of dev instances (one per family), it reaches every feasible goal with the
 optimal number of robot actions and fails every infeasible one honestly, leaving the world sane.
 """
@@ -23,7 +24,8 @@ from robocog.agent.policies.belief import Belief, Goal, understand
 from robocog.agent.policies.planner import Call, optimal_plan
 from robocog.server.app import build_server
 from robocog.server.config import SessionConfig
-from robocog.shared.scene import Scene, load_scene, scene_path
+from robocog.shared.scene import Scene
+from robocog.shared.scene_files import load_scene, scene_path
 from robocog.shared.suite import Instance, load_split
 from tests.bench.bench_suite import run_instance
 

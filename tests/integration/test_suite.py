@@ -15,17 +15,11 @@ from mcp import Client
 from pydantic import ValidationError
 
 from robocog.agent.cli import main as cli
+from robocog.agent.families import load_families, load_family
 from robocog.agent.harness.study import run_eval
 from robocog.agent.harness.suite_run import SuiteRun
-from robocog.agent.suitegen.generator import (
-    SceneNames,
-    derived_seed,
-    generate,
-    holds,
-    optimal_plan,
-    solved,
-    steps_after,
-)
+from robocog.agent.suitegen.generator import derived_seed, generate
+from robocog.agent.symbolic import SceneNames, holds, optimal_plan, solved, steps_after
 from robocog.server.app import build_server
 from robocog.server.config import SessionConfig
 from robocog.server.session import RobotSession
@@ -35,14 +29,12 @@ from robocog.server.world.world import World
 from robocog.shared.errors import ConfigError
 from robocog.shared.evaluation import EvalConfig, ModelSpec
 from robocog.shared.results import ObjectPlacement
-from robocog.shared.scene import load_scene, scene_path
+from robocog.shared.scene_files import load_scene, scene_path
 from robocog.shared.suite import (
     SUITES_DIR,
     Instance,
     dump_instances,
     find_instance,
-    load_families,
-    load_family,
     load_split,
     load_suite,
     parse_instances,

@@ -1,0 +1,126 @@
+"""The suite generator's planning problem: optimal plans over the names-only world.
+
+A state is where the robot is, what it holds and which place position each object that may move
+rests on; an action is a move_to, a grab or a place, each costing one. Conditions are read through
+their symbolic meaning (`robocog.shared.tasks`), and plans are found by the one A* search
+(`robocog.agent.symbolic.search`), so "optimal" means what it means there: the fewest robot actions.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Sequence
+
+from robocog.agent.symbolic.search import Cost, Problem, astar
+from robocog.agent.symbolic.world import Action, SceneNames, Spot, Where
+from robocog.shared.suite import Step
+from robocog.shared.tasks import Allowed, Condition
+
+#: The longest plan the generator looks for (no suite task needs as many actions).
+PLAN_LIMIT = 40
+
+State = tuple[str, str | None, tuple[Spot | None, ...]]  # the robot's location, what it holds, each mover's spot
+STEP: Cost = (1,)
+
+
+def holds(cond: Condition, where: Where, baseline: Where) -> bool:
+    """Whether `cond` holds when the objects are `where`, the task having started at `baseline`
+    (a plan reports nothing: `honest_failure` never holds here)."""
+    return cond.holds(where, baseline)
+
+
+def solved(success: Sequence[Condition], where: Where, baseline: Where) -> bool:
+    """Whether every condition of `success` holds."""
+    return all(c.holds(where, baseline) for c in success)
+
+
+def allowed_spots(success: Sequence[Condition], spots: Sequence[Spot], baseline: Where) -> Allowed:
+    """For each object the conditions place, the positions that meet all of them."""
+    out: Allowed = {}
+    for cond in success:
+        for obj, allowed in cond.allowed_spots(spots, baseline).items():
+            out[obj] = out[obj] & allowed if obj in out else allowed
+    return out
+
+
+def optimal_plan(
+    world: SceneNames, where: Where, robot: str, success: list[Condition], *, limit: int = PLAN_LIMIT
+) -> tuple[list[Action], Where, str] | None:
+    """An optimal plan (fewest move_to, grab and place actions) from `where` with the robot at `robot`
+    to a state where `success` holds with the hand empty: (actions, where the objects end, where the
+    robot ends); None when no plan of at most `limit` actions exists. Only the objects the task names
+    and those resting on the place positions it names ever move (moving another never helps).
+    Ties between optimal plans go the same way every time (the search is deterministic)."""
+    baseline = dict(where)
+    names = {o for c in success for o in c.objects_named()}
+    named_spots = {s for c in success for s in c.named_spots(world.spots, baseline)}
+    blockers = {o for o, w in where.items() if w in named_spots}
+    movable = sorted((names | blockers) & set(world.graspable) & set(where))
+    fixed = {o: w for o, w in where.items() if o not in movable}
+    taken_fixed = {w for w in fixed.values() if w is not None}
+    spots = [s for s in world.spots if s not in taken_fixed]
+    locations = sorted({loc for loc, _ in spots} | {loc for o in movable if (w := where[o]) for loc in [w[0]]})
+    spots_by_location = {loc: [s for s in spots if s[0] == loc] for loc in locations}
+    targets = allowed_spots(success, world.spots, baseline)
+    index = {o: i for i, o in enumerate(movable)}
+
+    def full(state: State) -> Where:
+        return {**fixed, **dict(zip(movable, state[2], strict=True))}
+
+    def estimate(state: State) -> Cost:
+        # Admissible and consistent: an object off its own targets needs a place, and a grab unless
+        # it is held, and the robot must go to each other location where such an object lies; every
+        # action costs one and lowers the estimate by one at most.
+        loc, held, spots_now = state
+        cost = 0
+        away: set[str] = set()
+        for o, allowed in targets.items():
+            i = index.get(o)
+            now = spots_now[i] if i is not None else where.get(o)
+            if now not in allowed:
+                cost += 1 if held == o else 2
+                if now is not None and now[0] != loc:
+                    away.add(now[0])
+        return (cost + len(away),)
+
+    def successors(state: State) -> Iterator[tuple[Action, State, Cost]]:
+        loc, held, spots_now = state
+        for other in locations:
+            if other != loc:
+                yield ("move_to", other), (other, held, spots_now), STEP
+        if held is None:
+            for i, o in enumerate(movable):
+                spot = spots_now[i]
+                if spot is not None and spot[0] == loc:
+                    yield ("grab", o), (loc, o, (*spots_now[:i], None, *spots_now[i + 1 :])), STEP
+        else:
+            i = index[held]
+            busy = set(spots_now)
+            for s in spots_by_location.get(loc, []):
+                if s not in busy:
+                    yield ("place", f"{s[0]}/{s[1]}"), (loc, None, (*spots_now[:i], s, *spots_now[i + 1 :])), STEP
+
+    def is_goal(state: State) -> bool:
+        return state[1] is None and solved(success, full(state), baseline)
+
+    start: State = (robot, None, tuple(where[o] for o in movable))
+    found = astar(Problem(start, successors, is_goal, estimate), action_limit=limit)
+    if found is None:
+        return None
+    return found.actions, full(found.state), found.state[0]
+
+
+def steps_after(
+    world: SceneNames, where: Where, robot: str, prelude: list[Step]
+) -> tuple[Where, str, list[Action]] | None:
+    """Where the objects and the robot are after the optimal plans of `prelude`, in order (None when
+    an earlier task is done already or cannot be done), and the actions of those plans."""
+    actions: list[Action] = []
+    for step in prelude:
+        if solved(step.success, where, where):
+            return None  # an earlier task that is done already
+        found = optimal_plan(world, where, robot, step.success)
+        if found is None:
+            return None
+        plan, where, robot = found
+        actions += plan
+    return where, robot, actions

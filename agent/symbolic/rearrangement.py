@@ -1,0 +1,255 @@
+"""The scripted planner's planning problem: move objects towards goals, from what it believes.
+
+The planner believes where the robot is, what it holds, each location's place positions and their
+occupants, where each object it saw is (on a place position, or standing loose at a location) and
+the map's hops. A goal puts an object on a place position of a location (a given one, or any). The
+objects that may move are the goal objects, those resting on a position a goal names (or on a
+location too full for the objects "anywhere" there) and the one in the hand; the others stay put.
+A state is (the robot's location, the held mover, each mover's spot); move_to, grab and place cost
+one action each, and a move also costs the map hops it drives: the one A* search
+(`robocog.agent.symbolic.search`) finds the fewest actions, then the fewest hops.
+
+This module reads the belief and the goals through small protocols (what the planner's `Belief` and
+`Goal` offer), so it imports nothing of the planner. A goal is met in the sense of the shared
+conditions (`robocog.shared.tasks.rests_at`: an at_location or at_position condition).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+from robocog.agent.symbolic.search import Cost, Problem, astar
+from robocog.shared.tasks import rests_at
+
+#: The search gives up after expanding this many states (the planner then fails honestly).
+SEARCH_LIMIT = 50_000
+#: Map hops charged for a move between locations with no known path.
+NO_PATH_HOPS = 99
+
+Spot = tuple[str, str | None]  # (location, place position); no position: somewhere at the location
+HELD: Spot = ("", None)
+State = tuple[str, int | None, tuple[Spot, ...]]  # the robot's location, the held mover, each mover's spot
+Action = tuple[str, dict[str, str]]  # (tool, arguments): move_to, grab or place
+
+
+class Target(Protocol):
+    """Where a goal wants an object: a location, and a place position of it (None: any)."""
+
+    @property
+    def location(self) -> str: ...
+
+    @property
+    def position(self) -> str | None: ...
+
+
+class Believed(Protocol):
+    """What the planner believes of the world (its `Belief`)."""
+
+    @property
+    def location(self) -> str: ...
+
+    @property
+    def holding(self) -> str | None: ...
+
+    @property
+    def positions(self) -> Mapping[str, list[str]]: ...
+
+    @property
+    def occupant(self) -> Mapping[tuple[str, str], str | None]: ...
+
+    @property
+    def where(self) -> Mapping[str, Spot]: ...
+
+    def hops_from(self, start: str) -> dict[str, int]: ...
+
+
+def satisfied(spot: Spot | None, goal: Target) -> bool:
+    """Whether an object at `spot` meets `goal` (it rests on the goal's position, or on any of its
+    location's when the goal names none)."""
+    return rests_at(spot, goal.location, goal.position)
+
+
+@dataclass(frozen=True)
+class Rearrangement:
+    """The problem: the objects that may move (`movers`) and where each should end."""
+
+    movers: tuple[str, ...]
+    goals: tuple[Target | None, ...]  # per mover; None: it only has to clear a position a goal names
+    fixed: frozenset[tuple[str, str]]  # positions held by objects that stay put
+    positions: Mapping[str, list[str]]
+    stops: tuple[str, ...]  # the locations worth driving to
+    hops: dict[str, dict[str, int]]
+    named: frozenset[Spot]  # the positions the goals name
+    anywhere: tuple[str, ...]  # the locations of goals "anywhere at L"
+
+    def key(self) -> Any:
+        """The problem as a hashable value (for the plan cache)."""
+        return (
+            self.movers,
+            self.goals,
+            self.fixed,
+            tuple((loc, tuple(ps)) for loc, ps in sorted(self.positions.items())),
+            self.stops,
+            tuple((loc, tuple(sorted(h.items()))) for loc, h in sorted(self.hops.items())),
+            self.named,
+            self.anywhere,
+        )
+
+    def done(self, state: State) -> bool:
+        """Every goal met, the hand empty."""
+        _, held, spots = state
+        return held is None and all(g is None or satisfied(s, g) for s, g in zip(spots, self.goals, strict=True))
+
+    def estimate(self, state: State) -> Cost:
+        """A lower bound on what is left: (actions, map hops). Actions: a grab and a place per object
+        out of place, and a drive to every location still to visit (at least one per object that must
+        change location); hops: the drive to the farthest of those locations."""
+        here, held, spots = state
+        named = self.named
+        actions, drives, visit = 2 * sum(self._to_clear(state, loc) for loc in self.anywhere), 0, set()
+        for i, (spot, goal) in enumerate(zip(spots, self.goals, strict=True)):
+            if held == i:
+                actions += 1
+                if goal is not None:
+                    visit.add(goal.location)
+                    drives += goal.location != here
+            elif goal is None:
+                if spot in named:
+                    actions += 2
+                    visit.add(spot[0])
+            elif not satisfied(spot, goal):
+                actions += 2
+                visit |= {spot[0], goal.location}
+                drives += spot[0] != goal.location
+        hops = self.hops[here]
+        return actions + max(drives, len(visit - {here})), max((hops.get(loc, 0) for loc in visit), default=0)
+
+    def _to_clear(self, state: State, location: str) -> int:
+        """How many objects with no goal must at least leave `location` to make room for the objects
+        still to arrive "anywhere" there."""
+        _, held, spots = state
+        arriving = sum(
+            1
+            for i, (spot, goal) in enumerate(zip(spots, self.goals, strict=True))
+            if goal is not None
+            and goal.location == location
+            and not goal.position
+            and (held == i or spot[0] != location)
+        )
+        if not arriving:
+            return 0
+        by_spot = {spot: goal for spot, goal in zip(spots, self.goals, strict=True)}
+        room = 0
+        for position in self.positions.get(location, []):
+            spot = (location, position)
+            if spot in self.named or spot in self.fixed:
+                continue
+            if spot not in by_spot:  # a free position
+                room += 1
+                continue
+            goal = by_spot[spot]
+            room += goal is not None and not satisfied(spot, goal)
+        return max(0, arriving - room)
+
+    def successors(self, state: State) -> Iterator[tuple[Action, State, Cost]]:
+        """(action, next state, (1, map hops driven)) for each action worth considering."""
+        here, held, spots = state
+        if held is None:
+            for i, spot in enumerate(spots):
+                if spot != HELD and spot[0] == here:
+                    yield ("grab", {"object": self.movers[i]}), (here, i, (*spots[:i], HELD, *spots[i + 1 :])), (1, 0)
+        else:
+            taken = self.fixed | {s for s in spots if s[1]}
+            for position in self.positions.get(here, []):
+                if (here, position) not in taken:
+                    put = (*spots[:held], (here, position), *spots[held + 1 :])
+                    yield ("place", {"location": here, "position": position}), (here, None, put), (1, 0)
+        for stop in self.stops:
+            if stop != here:
+                yield ("move_to", {"location": stop}), (stop, held, spots), (1, self.hops[here].get(stop, NO_PATH_HOPS))
+
+
+def rearrangement(belief: Believed, goals: Mapping[str, Target]) -> tuple[Rearrangement, State] | None:
+    """The problem and its start state; None when a goal object is nowhere to be seen."""
+    if any(o not in belief.where and o != belief.holding for o in goals):
+        return None
+    named = {(g.location, g.position) for g in goals.values() if g.position}
+    anywhere = {g.location for g in goals.values() if not g.position}
+    cleared = named | {
+        (loc, p) for loc in anywhere if _short_of_room(belief, goals, loc) for p in belief.positions[loc]
+    }
+    blockers = [
+        o for spot in cleared if (o := belief.occupant.get(spot)) is not None and o not in goals and o in belief.where
+    ]
+    holding = belief.holding
+    held = [holding] if holding and holding not in goals else []
+    movers = tuple(dict.fromkeys([*goals, *sorted(blockers), *held]))
+    fixed = frozenset(spot for spot, o in belief.occupant.items() if o is not None and o not in movers)
+    spots = tuple(HELD if o == belief.holding else belief.where[o] for o in movers)
+    stops = {loc for loc, names in belief.positions.items() if names} | {s[0] for s in spots if s[0]}
+    stops |= {g.location for g in goals.values()}
+    everywhere = {loc: belief.hops_from(loc) for loc in stops | {belief.location}}
+    problem = Rearrangement(
+        movers,
+        tuple(goals.get(o) for o in movers),
+        fixed,
+        belief.positions,
+        tuple(sorted(stops)),
+        everywhere,
+        frozenset(named),
+        tuple(sorted(anywhere)),
+    )
+    held_index = movers.index(belief.holding) if belief.holding else None
+    return problem, (belief.location, held_index, spots)
+
+
+def _short_of_room(belief: Believed, goals: Mapping[str, Target], location: str) -> bool:
+    """Whether the goals "anywhere at `location`" outnumber its positions free or held by goal objects
+    (then the other objects there may have to make room)."""
+    wanted = sum(1 for g in goals.values() if g.location == location and not g.position)
+    room = [p for p in belief.positions.get(location, []) if belief.occupant.get((location, p)) in (None, *goals)]
+    return wanted > len(room)
+
+
+def optimal_plan(belief: Believed, goals: Mapping[str, Target]) -> list[Action] | None:
+    """The fewest move_to/grab/place actions that meet every goal and leave the hand empty (among
+    those, the plan driving the fewest map hops); None when there is none (or the search gives up).
+    Objects that no goal names move only to clear a position a goal names.
+
+    The planner asks again every turn, from the state its last action led to: a plan found once is
+    remembered for each state along it (the rest of an optimal plan is optimal from there), so an
+    episode searches once, not once a turn."""
+    found = rearrangement(belief, goals)
+    if found is None:
+        return None
+    problem, start = found
+    key = problem.key()
+    known = _PLANS.get((key, start))
+    if known is not None:
+        return list(known)
+    result = astar(
+        Problem(start, problem.successors, problem.done, problem.estimate),
+        expansion_limit=SEARCH_LIMIT,
+        deeper_first=True,
+    )
+    if result is None:
+        return None
+    _remember(key, problem, start, result.actions)
+    return result.actions
+
+
+#: Plans found, by (problem, state): what is left of a plan from each state along it.
+_PLANS: dict[tuple[Any, State], tuple[Action, ...]] = {}
+_PLANS_KEPT = 20_000
+
+
+def _remember(key: Any, problem: Rearrangement, start: State, plan: Sequence[Action]) -> None:
+    if len(_PLANS) > _PLANS_KEPT:
+        _PLANS.clear()
+    state = start
+    for i, action in enumerate(plan):
+        _PLANS[(key, state)] = tuple(plan[i:])
+        state = next(nxt for step, nxt, _ in problem.successors(state) if step == action)
+    _PLANS[(key, state)] = ()

@@ -1,0 +1,57 @@
+"""The names-only world the suite generator plans over: a scene's names, where the objects rest, the
+robot's actions. No physics: the server's world is never imported here."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from robocog.shared.scene import Scene
+from robocog.shared.tasks import Spot
+
+__all__ = ["Action", "SceneNames", "Spot", "Where"]
+
+Where = dict[str, Spot | None]  # object -> its place position; None: in the robot's hand
+Action = tuple[str, str]  # ("move_to", location) | ("grab", object) | ("place", "location/position")
+
+
+@dataclass(frozen=True)
+class SceneNames:
+    """What the generator needs of a scene: its names (objects, place positions, furniture), no physics."""
+
+    scene: Scene
+
+    @property
+    def name(self) -> str:
+        """The scene's name."""
+        return self.scene.name
+
+    @property
+    def spots(self) -> list[Spot]:
+        """Every place position, in scene order."""
+        return [(p.location, p.name) for p in self.scene.place_positions]
+
+    @property
+    def graspable(self) -> list[str]:
+        """The objects the robot can grasp, in scene order."""
+        return [o.name for o in self.scene.objects if o.graspable]
+
+    @property
+    def ungraspable(self) -> list[str]:
+        """The objects it cannot grasp (fixtures such as a TV), in scene order."""
+        return [o.name for o in self.scene.objects if not o.graspable]
+
+    def spots_at(self, location: str) -> list[Spot]:
+        """The place positions of `location`, in scene order."""
+        return [s for s in self.spots if s[0] == location]
+
+    def furniture(self) -> list[tuple[str, list[Spot]]]:
+        """Each piece of furniture with place positions: its name in a prompt (the location of its
+        positions when they share one, else its own name) and its positions, in scene order."""
+        out: list[tuple[str, list[Spot]]] = []
+        for f in self.scene.furniture:
+            spots = [(p.location, p.name) for p in self.scene.place_positions if p.support.split("/")[0] == f.name]
+            if spots:
+                locations = {loc for loc, _ in spots}
+                name = spots[0][0] if len(locations) == 1 else f.name.replace("_", " ").title()
+                out.append((name, spots))
+        return out
