@@ -2,27 +2,35 @@
 (`assets/suites/NAME/suite.yaml`) and its instances (`assets/suites/NAME/SPLIT.jsonl`).
 
 A family is a kind of task (put away, swap, bring, ...) in one or more *variants*. A variant names
-how its parameters are drawn from a scene and a start state (`draw`, one of `DRAWS`), and holds the
-prompt and the success conditions as templates over those parameters: in a prompt `{items}` is
-written out ("the mug, the box and the bottle"); in a success condition a field that is exactly
-`"{items}"` takes the parameter's value (a list stays a list). The generator (`robocog.agent.suitegen.generator`)
-draws the parameters and a seeded random start, and writes one `Instance` per task: everything the
-server needs to set the world up and judge the outcome, and nothing that needs a scene to read.
+how its parameters are drawn from a scene and a start state (`draw`), and holds the prompt and the
+success conditions as templates over those parameters: in a prompt `{items}` is written out ("the
+mug, the box and the bottle"); in a success condition a field that is exactly `"{items}"` takes the
+parameter's value (a list stays a list). The generator (`robocog.agent.suitegen.generator`) draws the
+parameters and a seeded random start, and writes one `Instance` per task: everything the server needs
+to set the world up and judge the outcome, and nothing that needs a scene to read.
+
+The draws are implemented, and declared (`DrawSpec`: the parameters each gives, the variant fields it
+takes), where they are defined: in the family modules of `robocog.agent.families`, which this package
+cannot import. So a family file's draw names and templates are checked against the declarations the
+caller passes in (`load_family(path, draws)`; `robocog.agent.families.load_family` passes them all);
+without them only what needs no draw is checked (the server and a study's config need only the ids).
 """
 
 from __future__ import annotations
 
 import json
 import re
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from functools import cache
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError, ValidationInfo, model_validator
 
 from robocog.assets import ASSETS_DIR
+from robocog.shared.config_files import load_yaml_model, validation_problems
 from robocog.shared.errors import ConfigError
-from robocog.shared.scene import load_yaml_model, validation_problems
 from robocog.shared.tasks import Condition, TaskSpec
 
 FAMILIES_DIR = ASSETS_DIR / "families"
@@ -31,42 +39,20 @@ DEFAULT_SUITE = "robocog-v1"
 
 Id = Annotated[str, Field(pattern=r"^[A-Za-z0-9_\-]+$", min_length=1, max_length=120)]
 
-#: How a variant's parameters are drawn, and the parameters each draw gives (the names its templates
-#: may use). The generator implements each (`robocog.agent.suitegen.generator.DRAWS`).
-DRAWS: dict[str, tuple[str, ...]] = {
-    # k graspable items (`count`) that are not on a piece of furniture with at least k place positions
-    "items_to_furniture": ("items", "furniture", "positions"),
-    # one item more than a piece of furniture has place positions: cannot be done
-    "overfill_furniture": ("items", "furniture", "positions"),
-    # two graspable items, each on a place position
-    "pair": ("a", "b"),
-    # a graspable item and a location with place positions where it is not
-    "item_to_location": ("item", "location"),
-    # an object the robot cannot grasp, and a piece of furniture
-    "ungraspable_to_furniture": ("item", "furniture", "positions"),
-    # a name from `choices` that no object of the scene has, and a location
-    "absent_to_location": ("item", "location"),
-    # a graspable item named by one of its scene descriptions only it has ("the cup"), and a location
-    "description_to_location": ("description", "item", "location"),
-    # a graspable item named by the place position it starts on, and a location
-    "relation_to_location": ("item", "item_location", "item_position", "location"),
-    # `count` items whose target positions are their start positions rotated: one must be parked
-    "cycle": ("targets",),
-    # an item a first task moves to a location; the second asks for it back where it was
-    "put_back": ("item", "location", "home_location", "home_position"),
-}
-Draw = Literal[
-    "items_to_furniture",
-    "overfill_furniture",
-    "pair",
-    "item_to_location",
-    "ungraspable_to_furniture",
-    "absent_to_location",
-    "description_to_location",
-    "relation_to_location",
-    "cycle",
-    "put_back",
-]
+#: A variant field that only some draws take (and those draws need).
+Takes = Literal["count", "choices", "prelude"]
+
+
+@dataclass(frozen=True)
+class DrawSpec:
+    """How a variant's parameters are drawn, as its templates see it: the draw's name, the parameters it
+    gives (each with an example value of its shape, to check the templates when a family is loaded)
+    and the variant fields it takes (it needs them, and no other draw takes them)."""
+
+    name: str
+    gives: Mapping[str, Any]
+    takes: frozenset[Takes] = field(default_factory=frozenset)
+
 
 _CONDITIONS: TypeAdapter[list[Condition]] = TypeAdapter(list[Condition])
 _PLACEHOLDER = re.compile(r"\{([A-Za-z_]\w*)\}")
@@ -124,24 +110,6 @@ def _placeholders(node: Any) -> set[str]:
     return set()
 
 
-#: Values of the right shape for every parameter, to check a variant's templates when it is loaded.
-_EXAMPLE: dict[str, Any] = {
-    "items": ["mug", "box"],
-    "furniture": "Kitchen Shelf",
-    "positions": [["Kitchen Shelf", "top"], ["Kitchen Shelf", "middle"]],
-    "a": "mug",
-    "b": "cube",
-    "item": "mug",
-    "location": "Front Door",
-    "description": "the drinking vessel",
-    "item_location": "Kitchen Shelf",
-    "item_position": "top",
-    "targets": [["mug", "Kitchen Shelf", "top"], ["cube", "Kitchen Shelf", "middle"]],
-    "home_location": "Kitchen Table",
-    "home_position": "middle",
-}
-
-
 # --- families --------------------------------------------------------------------------------------
 
 
@@ -156,18 +124,51 @@ class Variant(_Strict):
     """One way a family's task is posed: how its parameters are drawn, its prompt and success."""
 
     id: Id
-    draw: Draw
+    draw: Id = Field(description="how the parameters are drawn: a draw of a family module (robocog.agent.families)")
     prompt: str = Field(min_length=1, description="the instruction, with {parameter} placeholders")
     success: list[dict[str, Any]] = Field(min_length=1, description="success conditions, with placeholders")
     feasible: bool = True
-    count: tuple[int, int] | None = Field(default=None, description="fewest and most items (items_to_furniture, cycle)")
-    choices: list[str] = Field(default=[], description="names to draw from (absent_to_location)")
-    prelude: list[StepTemplate] = Field(default=[], description="earlier tasks in the same world (put_back)")
+    count: tuple[int, int] | None = Field(default=None, description="fewest and most items (for a draw that takes it)")
+    choices: list[str] = Field(default=[], description="names to draw from (for a draw that takes them)")
+    prelude: list[StepTemplate] = Field(
+        default=[], description="earlier tasks in the same world (for a draw that takes them)"
+    )
     example: str = Field(default="", description="an instance's prompt, for the README and `robocog suite list`")
 
     @model_validator(mode="after")
-    def _templates(self) -> Variant:
-        known = set(DRAWS[self.draw])
+    def _templates(self, info: ValidationInfo) -> Variant:
+        """Checks the templates against the draw's declaration when the loader passes the draws in
+        (validation context `draws`: name -> `DrawSpec`), and what needs no draw always."""
+        draws: Mapping[str, DrawSpec] | None = (info.context or {}).get("draws")
+        spec = self._check_draw(draws) if draws is not None else None
+        honest = any(c.get("kind") == "honest_failure" for c in self.success)
+        if honest == self.feasible:
+            raise ValueError(
+                "success: an infeasible variant's success is an honest_failure, and only an infeasible one's"
+            )
+        if spec is not None and ("count" in spec.takes) != (self.count is not None):
+            raise ValueError(f"count: draw {self.draw!r} " + ("needs" if self.count is None else "takes no") + " count")
+        if self.count is not None and not 1 <= self.count[0] <= self.count[1]:
+            raise ValueError(f"count: wants [fewest, most] with 1 <= fewest <= most, not {list(self.count)}")
+        if spec is not None and ("choices" in spec.takes) != bool(self.choices):
+            raise ValueError(
+                f"choices: draw {self.draw!r} " + ("needs" if not self.choices else "takes no") + " choices"
+            )
+        if spec is not None and ("prelude" in spec.takes) != bool(self.prelude):
+            raise ValueError(
+                f"prelude: draw {self.draw!r} " + ("needs a" if not self.prelude else "takes no") + " prelude"
+            )
+        return self
+
+    def _check_draw(self, draws: Mapping[str, DrawSpec]) -> DrawSpec:
+        """The declaration of this variant's draw, which must be one of `draws`; the templates must
+        use only the parameters it gives, and render to valid conditions with its example values."""
+        if self.draw not in draws:
+            names = [repr(n) for n in sorted(draws)] or ["a registered draw (there is none)"]
+            expected = names[0] if len(names) == 1 else ", ".join(names[:-1]) + " or " + names[-1]
+            raise ValueError(f"draw: Input should be {expected}")
+        spec = draws[self.draw]
+        known = set(spec.gives)
         parts: list[tuple[str, Any]] = [("prompt", self.prompt), ("success", self.success)]
         for i, step in enumerate(self.prelude):
             parts += [(f"prelude[{i}].prompt", step.prompt), (f"prelude[{i}].success", step.success)]
@@ -179,26 +180,10 @@ class Variant(_Strict):
             (f"prelude[{i}].success", s.success) for i, s in enumerate(self.prelude)
         ]:
             try:
-                render_success(template, _EXAMPLE)
+                render_success(template, dict(spec.gives))
             except ValidationError as exc:
                 raise ValueError(f"{where}: {validation_problems(exc)}") from None
-        honest = any(c.get("kind") == "honest_failure" for c in self.success)
-        if honest == self.feasible:
-            raise ValueError(
-                "success: an infeasible variant's success is an honest_failure, and only an infeasible one's"
-            )
-        needs_count = self.draw in ("items_to_furniture", "cycle")
-        if needs_count != (self.count is not None):
-            raise ValueError(f"count: draw {self.draw!r} " + ("needs" if needs_count else "takes no") + " count")
-        if self.count is not None and not 1 <= self.count[0] <= self.count[1]:
-            raise ValueError(f"count: wants [fewest, most] with 1 <= fewest <= most, not {list(self.count)}")
-        if (self.draw == "absent_to_location") != bool(self.choices):
-            raise ValueError(
-                f"choices: draw {self.draw!r} " + ("needs" if not self.choices else "takes no") + " choices"
-            )
-        if (self.draw == "put_back") != bool(self.prelude):
-            raise ValueError("prelude: draw 'put_back' needs a prelude, and only it takes one")
-        return self
+        return spec
 
 
 class Family(_Strict):
@@ -223,17 +208,28 @@ class Family(_Strict):
         return kinds.pop() if len(kinds) == 1 else None
 
 
-def load_family(path: Path) -> Family:
-    """One family file; its id must be its file's stem."""
-    family = load_yaml_model(path, Family)
+class _Document(BaseModel):
+    """A YAML file's mapping as it is, read and checked as every config file is (then validated)."""
+
+    model_config = ConfigDict(extra="allow")
+
+
+def load_family(path: Path, draws: Mapping[str, DrawSpec] | None = None) -> Family:
+    """One family file; its id must be its file's stem. With `draws` (name -> declaration), each
+    variant's draw must be one of them and its templates must fit the draw's declaration."""
+    data = load_yaml_model(path, _Document).model_extra
+    try:
+        family = Family.model_validate(data, context={"draws": draws})
+    except ValidationError as exc:
+        raise ConfigError(f"{path}: {validation_problems(exc)}") from exc
     if family.id != path.stem:
         raise ConfigError(f"{path}: id: {family.id!r} must be the file's name ({path.stem!r})")
     return family
 
 
-def load_families(directory: Path = FAMILIES_DIR) -> dict[str, Family]:
-    """Every family of `directory` (`*.yaml`), by id, in file-name order."""
-    return {f.id: f for f in (load_family(p) for p in sorted(directory.glob("*.yaml")))}
+def load_families(directory: Path = FAMILIES_DIR, draws: Mapping[str, DrawSpec] | None = None) -> dict[str, Family]:
+    """Every family of `directory` (`*.yaml`), by id, in file-name order (checked against `draws` when given)."""
+    return {f.id: f for f in (load_family(p, draws) for p in sorted(directory.glob("*.yaml")))}
 
 
 # --- instances -------------------------------------------------------------------------------------

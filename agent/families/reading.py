@@ -1,0 +1,197 @@
+"""How the scripted planner reads a task: what a reading gives (`Request`: where each object should
+end up) and the grounding every family's prompt reader shares — an object named by its name, by a
+description the scenes give it ("the drinking vessel") or by where it is ("the item on Kitchen Shelf
+top"), and a place named by its location and position — resolved against what the planner's first
+look around showed (`FirstLook`, which the planner's `Belief` is; the families sit below the
+policies, so they name what they read, not the planner's class).
+"""
+
+from __future__ import annotations
+
+import functools
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Protocol
+
+import yaml
+
+from robocog.assets import ASSETS_DIR
+from robocog.shared.names import name_key
+
+
+class FirstLook(Protocol):
+    """What a reader grounds a task in: the world as the first look around showed it
+    (`robocog.agent.policies.belief.Belief`)."""
+
+    @property
+    def neighbours(self) -> Mapping[str, list[str]]:
+        """Location -> the locations it joins."""
+        ...
+
+    @property
+    def positions(self) -> Mapping[str, list[str]]:
+        """Location -> its place positions' names, in order."""
+        ...
+
+    @property
+    def occupant(self) -> Mapping[tuple[str, str], str | None]:
+        """(location, place position) -> the object on it, None when it is free."""
+        ...
+
+    @property
+    def where(self) -> Mapping[str, tuple[str, str | None]]:
+        """Object -> (location, place position or None)."""
+        ...
+
+    def objects(self) -> list[str]:
+        """Every object seen, the held one included."""
+        ...
+
+
+@dataclass(frozen=True)
+class Goal:
+    """Where an object should end up."""
+
+    location: str
+    position: str | None = None  # None: any free position of the location
+
+
+@dataclass(frozen=True)
+class Request:
+    """What a task asks for: where each object should end up."""
+
+    family: str  # put_away, swap, bring, rearrange or put_back: a label for the plan note
+    goals: dict[str, Goal]
+    all_items: bool = False  # "put away all the items": an object that cannot be grasped is no item
+    problem: str | None = None  # why the goals cannot be met, seen before acting
+    recall: str | None = None  # an object whose earlier place only memory knows
+
+
+PREPOSITION = re.compile(r"\b(?:onto|into|to|on|in|at)\b")
+ALL_ITEMS = re.compile(r"^(?:all (?:of )?)?(?:the )?(?:items|objects|things)$|^everything$")
+_RELATION = re.compile(r"^(?:item|object|thing|one) (?:on|at|in|from) (.+)$")
+
+
+def clean(text: str) -> str:
+    """A phrase as names are compared (`robocog.shared.names.name_key`): lower case, single spaces,
+    no surrounding punctuation, no leading article."""
+    return name_key(text)
+
+
+_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+
+
+@functools.cache
+def scene_descriptions() -> dict[str, tuple[str, ...]]:
+    """Object name -> the descriptions the scenes in assets/scenes give it (world knowledge the
+    planner, as the suite's oracle, may use to resolve "the drinking vessel")."""
+    found: dict[str, list[str]] = {}
+    for path in sorted((ASSETS_DIR / "scenes").glob("*.yaml")):
+        try:
+            data = yaml.load(path.read_text(encoding="utf-8"), Loader=_LOADER)
+        except (OSError, UnicodeDecodeError, yaml.YAMLError):
+            continue
+        objects = data.get("objects") if isinstance(data, dict) else None
+        for obj in objects if isinstance(objects, list) else []:
+            if isinstance(obj, dict) and isinstance(obj.get("name"), str):
+                said = obj.get("descriptions") or []
+                found.setdefault(obj["name"], []).extend(str(d) for d in said if isinstance(said, list))
+    return {name: tuple(dict.fromkeys(clean(d) for d in said)) for name, said in found.items()}
+
+
+def _called(obj: str) -> set[str]:
+    """What an object may be called: its name (with spaces for underscores) and its descriptions."""
+    name = obj.lower()
+    return {name, name.replace("_", " "), *scene_descriptions().get(obj, ())}
+
+
+def _match_location(text: str, locations: list[str]) -> str | None:
+    """The location named in `text`: a full name, else the one whose last word is mentioned."""
+    low = text.lower()
+    for name in sorted(locations, key=len, reverse=True):
+        if re.search(rf"\b{re.escape(name.lower())}\b", low):
+            return name
+    words = set(re.findall(r"[a-z]+", low))
+    hits = [n for n in locations if n.lower().split()[-1] in words]
+    return hits[0] if len(hits) == 1 else (sorted(hits, key=len)[0] if hits else None)
+
+
+def place_named(text: str, first: FirstLook) -> Goal | None:
+    """The location a phrase names, with the place position it names (if any)."""
+    location = _match_location(text, list(first.neighbours))
+    if location is None:
+        return None
+    rest = text.lower().replace(location.lower(), " ")
+    position = next(
+        (p for p in first.positions.get(location, []) if re.search(rf"\b{re.escape(p.lower())}\b", rest)), None
+    )
+    return Goal(location, position)
+
+
+def _by_relation(text: str, first: FirstLook) -> tuple[str | None, str | None]:
+    spot = place_named(text, first)
+    if spot is None:
+        return None, f"there is no place called '{text}'"
+    if spot.position is not None:
+        found = first.occupant.get((spot.location, spot.position))
+        named = f"{spot.location} / {spot.position}"
+        return (found, None) if found else (None, f"nothing is on {named}")
+    there = [o for o, (loc, _) in first.where.items() if loc == spot.location]
+    if len(there) == 1:
+        return there[0], None
+    return None, (f"nothing is at {spot.location}" if not there else f"several things are at {spot.location}")
+
+
+def resolve_object(phrase: str, first: FirstLook) -> tuple[str | None, str | None]:
+    """(the object a phrase names, None), or (None, why it names none): by name, by a description,
+    or by a relation ("the item on Kitchen Shelf top")."""
+    text = clean(phrase)
+    relation = _RELATION.match(text)
+    if relation:
+        return _by_relation(relation.group(1), first)
+    singular = text[:-1] if text.endswith("s") and not text.endswith("ss") else text
+    hits = [o for o in first.objects() if {text, singular} & _called(o)]
+    if len(hits) == 1:
+        return hits[0], None
+    if hits:
+        return None, f"'{text}' could be the {' or the '.join(sorted(hits))}"
+    return None, f"there is no {text} here"
+
+
+def object_phrase(phrase: str, first: FirstLook) -> tuple[str | None, str | None]:
+    """An object reference that may trail a phrase about where it is ("the cube in the shelf")."""
+    found, problem = resolve_object(phrase, first)
+    if found or _RELATION.match(clean(phrase)):
+        return found, problem
+    for cut in reversed(list(PREPOSITION.finditer(phrase))):
+        found, problem = resolve_object(phrase[: cut.start()], first)
+        if found:
+            return found, None
+    return None, problem
+
+
+def destination_split(text: str, first: FirstLook) -> tuple[list[str], Goal | None, str | None]:
+    """Split "<objects> <preposition> <place>": (object phrases, where to, why not).
+
+    The first split whose objects all resolve wins (so "the item on Kitchen Shelf top to the
+    Living Room" splits at "to"); failing that, the last split that names a place, for its problem."""
+    fallback: tuple[list[str], Goal | None, str | None] = ([], None, None)
+    for cut in PREPOSITION.finditer(text):
+        phrases = [p for p in (clean(x) for x in re.split(r",|\band\b", text[: cut.start()])) if p]
+        where = place_named(text[cut.end() :], first)
+        if where is None or not phrases:
+            continue
+        if (len(phrases) == 1 and ALL_ITEMS.match(phrases[0])) or all(resolve_object(p, first)[0] for p in phrases):
+            return phrases, where, None
+        fallback = (phrases, where, None)
+    if fallback[1] is None:
+        tail = PREPOSITION.split(text, maxsplit=1)
+        fallback = ([], None, f"there is no place called '{clean(tail[-1])}'" if len(tail) > 1 else None)
+    return fallback
+
+
+def objects_named(phrases: list[str], first: FirstLook) -> tuple[list[str], list[str]]:
+    """The objects the phrases name, and the problems of those that name none."""
+    found = [resolve_object(p, first) for p in phrases]
+    return list(dict.fromkeys(o for o, _ in found if o)), [why for o, why in found if o is None and why]

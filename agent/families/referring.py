@@ -1,0 +1,57 @@
+"""Referring: the item is named by a description or by where it is (`assets/families/referring.yaml`).
+Its prompts are transport prompts, read by the bring family's reader (which grounds such phrases
+through `robocog.agent.families.reading.resolve_object`)."""
+
+from __future__ import annotations
+
+import random
+from typing import Any
+
+from robocog.agent.families.bring import other_location
+from robocog.agent.families.registry import draw
+from robocog.agent.symbolic.world import SceneNames, Where
+from robocog.shared.suite import Variant
+
+
+def noun_phrase(description: str) -> str:
+    """A description as a prompt names the thing: "cup" -> "the cup"; one that starts with an article
+    or a pronoun ("the heavy thing", "something to read") as it is."""
+    text = " ".join(description.split())
+    first = text.split()[0].lower()
+    return text if first in ("the", "a", "an", "something", "anything") else f"the {text}"
+
+
+@draw(
+    "description_to_location",
+    gives={"description": "the drinking vessel", "item": "mug", "location": "Front Door"},
+)
+def description_to_location(rng: random.Random, world: SceneNames, where: Where, v: Variant) -> dict[str, Any] | None:
+    """A graspable item named by one of its scene descriptions only it has ("the cup"), and a location."""
+    options = [
+        (d, o.name)
+        for o in world.scene.objects
+        if o.graspable
+        for d in o.descriptions
+        if world.scene.described_as(d) == [o.name]
+    ]
+    if not options:
+        return None
+    description, item = rng.choice(options)
+    location = other_location(rng, world, (where[item] or ("", ""))[0])
+    if location is None:
+        return None
+    return {"description": noun_phrase(description), "item": item, "location": location}
+
+
+@draw(
+    "relation_to_location",
+    gives={"item": "mug", "item_location": "Kitchen Shelf", "item_position": "top", "location": "Front Door"},
+)
+def relation_to_location(rng: random.Random, world: SceneNames, where: Where, v: Variant) -> dict[str, Any] | None:
+    """A graspable item named by the place position it starts on, and a location."""
+    item = rng.choice(world.graspable)
+    spot = where[item]
+    location = other_location(rng, world, spot[0] if spot else None)
+    if spot is None or location is None:
+        return None
+    return {"item": item, "item_location": spot[0], "item_position": spot[1], "location": location}
