@@ -25,7 +25,7 @@ from robocog.server.tools.base import Caller, Tool
 from robocog.server.world.tasks import task_catalogue
 from robocog.server.world.world import World
 from robocog.shared.results import ObjectPlacement, WorldState
-from robocog.shared.scene import scene_path
+from robocog.shared.scene_files import scene_path
 from robocog.shared.suite import Instance, find_instance
 from robocog.shared.tasks import TaskSpec
 

@@ -7,7 +7,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from robocog.shared.scene import load_yaml_model
+from robocog.shared.config_files import load_yaml_model
 
 
 class ModelSpec(BaseModel):

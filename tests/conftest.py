@@ -36,7 +36,7 @@ def _guarded_connect(self: socket.socket, address: object) -> None:
 #: The modules that take longest, run first: `make test` spreads whole modules over workers
 #: (`pytest -n 2 --dist loadfile`, which hands them out in collection order), so a long module left
 #: for the end would keep one worker busy while the other idles. The rest keep their order.
-SLOW_FIRST = ("test_scale.py", "test_evaluation.py", "test_agent.py", "test_models.py")
+SLOW_FIRST = ("test_scale.py", "test_evaluation.py", "test_agent.py", "test_models.py", "test_model_failures.py")
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:

@@ -16,7 +16,8 @@ from pybullet_utils.bullet_client import BulletClient
 from robocog.server.world.builder import build
 from robocog.server.world.sim import Sim
 from robocog.shared.errors import WorldError
-from robocog.shared.scene import RobotSpec, Scene
+from robocog.shared.robot_spec import RobotSpec
+from robocog.shared.scene import Scene
 
 #: The options `reset` understands, with what each must be.
 OPTIONS: dict[str, type] = {"randomize": bool}

@@ -20,7 +20,7 @@ import numpy as np
 import pybullet
 from pybullet_utils.bullet_client import BulletClient
 
-from robocog.shared.scene import RobotSpec, resolve_urdf, revolute_joint_pattern
+from robocog.shared.robot_spec import RobotSpec, resolve_urdf, revolute_joint_pattern
 
 Vec3 = tuple[float, float, float]
 

@@ -17,7 +17,8 @@ from pybullet_utils.bullet_client import BulletClient
 
 from robocog.server.world.navigation import SemanticMap
 from robocog.server.world.robot import Robot
-from robocog.shared.scene import PlacePosition, RobotSpec, Scene, SceneObject
+from robocog.shared.robot_spec import RobotSpec
+from robocog.shared.scene import PlacePosition, Scene, SceneObject
 
 
 @dataclass(frozen=True)

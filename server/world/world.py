@@ -22,7 +22,9 @@ from robocog.server.world.builder import connect
 from robocog.server.world.navigation import SemanticMap
 from robocog.server.world.sim import Sim
 from robocog.shared.results import ObjectPlacement, WorldState
-from robocog.shared.scene import Scene, SceneObject, load_robot, load_scene, scene_path
+from robocog.shared.robot_spec import load_robot
+from robocog.shared.scene import Scene, SceneObject
+from robocog.shared.scene_files import load_scene, scene_path
 
 DEFAULT_SCENE = ASSETS_DIR / "scenes" / "household.yaml"
 

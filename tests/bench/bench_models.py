@@ -34,11 +34,11 @@ import litellm  # noqa: E402
 from robocog.agent.client import loop  # noqa: E402
 from robocog.agent.client import model as model_service  # noqa: E402
 from robocog.agent.client.connection import ServerSpec, connect  # noqa: E402
-from robocog.agent.client.eval_protocols import PROTOCOLS, ProtocolName  # noqa: E402
 from robocog.agent.client.loop import function_definitions, run_episode  # noqa: E402
 from robocog.agent.client.model import PLACEHOLDER_KEY, assistant_message, complete, usage, warm_up_litellm  # noqa: E402
 from robocog.agent.client.settings import AgentSettings  # noqa: E402
 from robocog.agent.client.trace_sinks import Trace  # noqa: E402
+from robocog.agent.study_protocols import PROTOCOLS, ProtocolName  # noqa: E402
 from tests.fake_llm import FakeLLM, planner_script  # noqa: E402
 
 ROUTES = {

@@ -22,16 +22,9 @@ from robocog.server.session import RobotSession
 from robocog.server.tools import grab
 from robocog.server.world.world import DEFAULT_SCENE, World
 from robocog.shared.errors import ConfigError
-from robocog.shared.scene import (
-    SCENES_DIR,
-    Location,
-    PlacePosition,
-    Scene,
-    layout_problems,
-    load_scene,
-    scene_names,
-    scene_path,
-)
+from robocog.shared.scene import Location, PlacePosition, Scene
+from robocog.shared.scene_files import SCENES_DIR, load_scene, scene_names, scene_path
+from robocog.shared.scene_layout import layout_problems
 from tests.helpers import PAPER_EDGES, PAPER_LOCATIONS, PAPER_POSITIONS
 
 NEW_SCENES = ("suite_house", "flat")

@@ -21,7 +21,6 @@ from __future__ import annotations
 import json
 import logging
 import os
-from collections import Counter
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
@@ -41,6 +40,8 @@ from robocog.server.app import build_server
 from robocog.server.config import SessionConfig
 from robocog.shared.results import WorldState
 from tests.helpers import ROOT
+from tests.hostile_inputs import MADE_UP_TOOLS, NUMBERS, ODD_TEXTS, PIECES, SIZES, nested, repeat
+from tests.world_invariants import broken_invariants
 
 #: A call that takes longer than this is a hung server (the largest hostile text is a few MB).
 CALL_TIMEOUT_S = 120.0
@@ -62,56 +63,7 @@ def fuzz_settings() -> settings:
     )
 
 
-# --- hostile values ------------------------------------------------------------------------------
-
-#: Texts that have broken parsers, tokenizers, databases and templates somewhere.
-ODD_TEXTS = (
-    "",
-    " ",
-    "\x00",
-    "\t\r\n",
-    "\x1b[2J",
-    "null",
-    "None",
-    "NaN",
-    "-1",
-    "\ufeffmug",
-    "mug\x00",
-    "KITCHEN SHELF",
-    " Kitchen Shelf\t",
-    "kitchen_shelf",
-    "\u202eflehS nehctiK",
-    "🤖🧊☕",
-    "𝕂𝕚𝕥𝕔𝕙𝕖𝕟",
-    "\ud800",
-    "a\udfffb",
-    "' OR '1'='1' --",
-    '"}]}\n{"jsonrpc":"2.0"',
-    "<script>alert(1)</script>",
-    "{{7*7}}${jndi:ldap://x}%s%n",
-    "../../../../etc/passwd",
-    "robocog://world/state",
-)
-#: Pieces repeated into long texts, and the lengths (around the limits, and up to a few MB).
-PIECES = ("x", "Kitchen Shelf ", "\x00", "é", "🤖", "\r\n", "\ud800", "the mug ")
-SIZES = (129, 201, 2_001, 4_097, 65_536, 1 << 20, 3 << 20)
-#: Tools that exist nowhere, and names that are almost right.
-MADE_UP_TOOLS = ("", "nope", "Move_To", "move_to ", "look_around\x00", "tools/call", "__init__", "x" * 10_000, "🤖")
-NUMBERS = (0, -1, 1, 20, 21, 2**31, 2**63, -(2**63) - 1, 10**30, -(10**30), 10**400)
-
-
-def repeat(piece: str, size: int) -> str:
-    """`piece` repeated to exactly `size` characters."""
-    return (piece * (size // len(piece) + 1))[:size]
-
-
-def nested(depth: int) -> Any:
-    """A list nested `depth` deep."""
-    value: Any = []
-    for _ in range(depth):
-        value = [value]
-    return value
-
+# --- hostile values, as Hypothesis strategies --------------------------------------------------------
 
 long_texts = st.builds(repeat, st.sampled_from(PIECES), st.sampled_from(SIZES))
 odd_texts = st.one_of(
@@ -266,39 +218,6 @@ def robot(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Robot]:
             yield robot
     finally:
         logging.getLogger().removeHandler(log)
-
-
-# --- the invariants ------------------------------------------------------------------------------------
-
-
-def broken_invariants(state: WorldState, objects: list[str], locations: list[str]) -> list[str]:
-    """What is wrong with the world's ground truth: objects lost or made up, a position holding two
-    objects, more than one object held, a held object resting on a position, a robot off the map."""
-    problems: list[str] = []
-    names = sorted(o.object for o in state.objects)
-    if names != objects:
-        problems.append(f"objects not conserved: {names} instead of {objects}")
-    resting = Counter((o.location, o.position) for o in state.objects if o.state == "on_position")
-    problems += [f"{where} holds {n} objects" for where, n in resting.items() if n > 1]
-    listed = Counter((p.location, p.position) for p in state.positions)
-    problems += [f"position {where} listed {n} times" for where, n in listed.items() if n > 1]
-    placements = {o.object: o for o in state.objects}
-    for p in state.positions:
-        if p.occupied_by is None:
-            continue
-        o = placements.get(p.occupied_by)
-        if o is None or o.state != "on_position" or (o.location, o.position) != (p.location, p.position):
-            problems.append(f"{p.location}/{p.position} says {p.occupied_by} but the object says {o}")
-    held = [o.object for o in state.objects if o.state == "held"]
-    if len(held) > 1:
-        problems.append(f"{len(held)} objects held: {held}")
-    if state.robot.holding != (held[0] if held else None):
-        problems.append(f"the robot holds {state.robot.holding} but the objects held are {held}")
-    if state.robot.holding is not None and state.robot.holding in {p.occupied_by for p in state.positions}:
-        problems.append(f"{state.robot.holding} is held and placed at once")
-    if state.robot.location not in locations:
-        problems.append(f"the robot is at {state.robot.location!r}, not on the map")
-    return problems
 
 
 class ToolFuzz(RuleBasedStateMachine):

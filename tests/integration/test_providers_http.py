@@ -17,7 +17,8 @@ import httpx
 import litellm
 import pytest
 
-from tests.fake_llm import PLACEHOLDER_KEY, Fail, FakeLLM, Turn, fake_llm_fixture, planner_script  # noqa: F401
+from tests.fake_llm import PLACEHOLDER_KEY, Fail, FakeLLM, Turn, planner_script
+from tests.fake_llm.pytest_fixture import fake_llm_fixture  # noqa: F401
 
 pytestmark = pytest.mark.anyio
 

@@ -17,7 +17,9 @@ from robocog.server.tools import grab, look_around, move_to
 from robocog.server.world.world import DEFAULT_SCENE, World
 from robocog.shared.errors import ConfigError
 from robocog.shared.evaluation import load_config
-from robocog.shared.scene import Scene, load_robot, load_scene
+from robocog.shared.robot_spec import load_robot
+from robocog.shared.scene import Scene
+from robocog.shared.scene_files import load_scene
 from tests.helpers import PAPER_EDGES, PAPER_LOCATIONS, PAPER_POSITIONS
 
 

@@ -1,0 +1,69 @@
+"""The capability profile (with three or more task families): a radar, one axis per family, one line
+per model, the family's success rate with every attempt counted (errored ones as failures, as
+`robocog.agent.analysis.scores` scores them).
+
+matplotlib is imported when the figure is drawn, not with this module.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, cast
+
+from robocog.agent.analysis.figure_layout import TAB10, legend_below, new_figure
+from robocog.agent.analysis.scores import FamilyRow, families, models
+
+if TYPE_CHECKING:
+    from matplotlib.artist import Artist
+    from matplotlib.projections.polar import PolarAxes
+
+
+#: The capability profile needs this many families (axes) to be a polygon.
+CAPABILITY_AXES = 3
+CAPABILITY_FILE = "capability.png"
+
+
+def draw_capability(scores: Sequence[FamilyRow], out: Path) -> str | None:
+    """The capability profile: a radar with one axis per family (its success rate, errored attempts
+    counted as failures; on an infeasible family the honest-failure rate) and one line per model.
+    Returns the file name, or None with fewer than `CAPABILITY_AXES` families."""
+    names = families(scores)
+    if len(names) < CAPABILITY_AXES:
+        return None
+    angles = [2 * math.pi * i / len(names) for i in range(len(names))]
+    fig = new_figure(6.4, 5.6)
+    ax = cast("PolarAxes", fig.add_subplot(1, 1, 1, projection="polar"))
+    ax.set_theta_offset(math.pi / 2)  # the first family at the top, the others clockwise
+    ax.set_theta_direction(-1)
+    handles: list[Artist] = []
+    labels: list[str] = []
+    for j, model in enumerate(models(scores)):
+        mine = {s.family: s for s in scores if s.model == model}
+        values = [mine[f].success if f in mine else math.nan for f in names]
+        ring, closed = [*angles, angles[0]], [*values, values[0]]
+        colour = TAB10[j % len(TAB10)]
+        (line,) = ax.plot(ring, closed, marker="o", color=colour, linewidth=1.8)
+        ax.fill(ring, [0.0 if math.isnan(v) else v for v in closed], color=colour, alpha=0.08)
+        handles.append(line)
+        labels.append(model)
+    ticks = []
+    for f in names:
+        n = max((s.attempts for s in scores if s.family == f), default=0)
+        ticks.append(f"{f}\n(n = {n})")
+    ax.set_xticks(angles, ticks, fontsize=8)
+    ax.tick_params(axis="x", pad=12)  # the family names clear of the rim
+    ax.set_ylim(0, 1)
+    ax.set_yticks([0.25, 0.5, 0.75, 1.0], ["25%", "50%", "75%", "100%"], fontsize=7, color="grey")
+    ax.set_rlabel_position(180 / len(names))  # between the first two axes
+    ax.grid(alpha=0.4)
+    legend_below(fig, handles, labels, "model")
+    fig.suptitle(
+        "Capability profile: success per family (infeasible: honest failure)\n"
+        "every attempt counted, errored ones as failures; n = attempts per model",
+        fontsize=10,
+    )
+    path = out / CAPABILITY_FILE
+    fig.savefig(path)
+    return path.name

@@ -1,0 +1,57 @@
+"""Loading a scene file, and the shipped scenes by name.
+
+`load_scene` validates a scene file and the files it refers to (the robot description, its arm's
+URDF, objects' URDFs) where the world will look for them. A shipped scene is named by its file's
+stem (`scene_path("flat")`).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from robocog.assets import ASSETS_DIR
+from robocog.shared.config_files import load_yaml_model
+from robocog.shared.errors import ConfigError
+from robocog.shared.robot_spec import load_robot, urdf_problem
+from robocog.shared.scene import Scene
+
+
+def load_scene(path: Path) -> Scene:
+    """Load and validate a scene file, and the robot description and URDFs it refers to."""
+    scene = load_yaml_model(path, Scene)
+    robot = scene.robot_file()
+    if not robot.is_file():
+        raise ConfigError(f"{path}: robot: {scene.robot!r}: no such file (robot files are relative to {ASSETS_DIR})")
+    load_robot(robot)
+    for i, obj in enumerate(scene.objects):
+        problem = urdf_problem(obj.urdf) if obj.urdf is not None else None
+        if problem is not None:
+            raise ConfigError(f"{path}: objects[{i}].urdf: {problem}")
+    return scene
+
+
+#: Where the shipped scenes live; a scene is named by its file's stem.
+SCENES_DIR = ASSETS_DIR / "scenes"
+
+
+def scene_names() -> list[str]:
+    """The shipped scenes' names, sorted."""
+    return sorted(p.stem for p in SCENES_DIR.glob("*.yaml"))
+
+
+def scene_path(scene: str | Path) -> Path:
+    """The file of a scene given by name ('flat' -> assets/scenes/flat.yaml) or by path (kept as it is).
+
+    A bare word (no directory, no suffix) that is not an existing file is a name; an unknown name is
+    a `ConfigError` listing the known ones. A path is returned unchanged (`load_scene` checks it).
+    """
+    path = Path(scene)
+    text = str(scene)
+    if path.is_file() or path.suffix or "/" in text or "\\" in text:
+        return path
+    named = SCENES_DIR / f"{text}.yaml"
+    if named.is_file():
+        return named
+    raise ConfigError(
+        f"scene {text!r}: no such scene; known scenes: {', '.join(scene_names())} (or give the path of a scene YAML)"
+    )

@@ -1,0 +1,124 @@
+"""The geometry a scene's schema cannot see: `layout_problems` checks a connected map, nothing
+overlapping, positions on their supports and within reach; every shipped scene passes it."""
+
+from __future__ import annotations
+
+import math
+
+from robocog.shared.config_files import Vec2
+from robocog.shared.scene import Scene, Wall
+
+#: Metres from a location to the centre of one of its place positions that the arm reaches (the
+#: shipped scenes keep 0.6 to 0.67; the physics decides, this only catches a position put far off).
+REACH_M = 0.7
+#: Half the width of the robot's base: a location closer than this to a wall or furniture is cramped.
+BASE_HALF_M = 0.25
+_Rect = tuple[float, float, float, float]  # x0, y0, x1, y1
+
+
+def _rect(center: tuple[float, ...], size: tuple[float, ...]) -> _Rect:
+    return (center[0] - size[0] / 2, center[1] - size[1] / 2, center[0] + size[0] / 2, center[1] + size[1] / 2)
+
+
+def _overlap(a: _Rect, b: _Rect, slack: float = 1e-6) -> bool:
+    """Whether two rectangles overlap by more than `slack` in x and in y (touching is not overlapping)."""
+    return min(a[2], b[2]) - max(a[0], b[0]) > slack and min(a[3], b[3]) - max(a[1], b[1]) > slack
+
+
+def _point_segment(px: float, py: float, a: Vec2, b: Vec2) -> float:
+    (ax, ay), (bx, by) = a, b
+    dx, dy = bx - ax, by - ay
+    t = 0.0 if dx == dy == 0 else max(0.0, min(1.0, ((px - ax) * dx + (py - ay) * dy) / (dx * dx + dy * dy)))
+    return math.hypot(px - (ax + t * dx), py - (ay + t * dy))
+
+
+def _rect_wall_gap(r: _Rect, wall: Wall) -> float:
+    """Distance from a rectangle to a wall's surface in the plan (negative or zero when they meet)."""
+    x0, y0, x1, y1 = r
+    a, b = wall.start, wall.end
+    inside = any(x0 <= px <= x1 and y0 <= py <= y1 for px, py in (a, b))
+    if not inside:
+        # The segment crosses the rectangle when it crosses a diagonal's line within both.
+        for (cx, cy), (ex, ey) in (((x0, y0), (x1, y1)), ((x0, y1), (x1, y0))):
+            d1 = (b[0] - a[0]) * (cy - a[1]) - (b[1] - a[1]) * (cx - a[0])
+            d2 = (b[0] - a[0]) * (ey - a[1]) - (b[1] - a[1]) * (ex - a[0])
+            d3 = (ex - cx) * (a[1] - cy) - (ey - cy) * (a[0] - cx)
+            d4 = (ex - cx) * (b[1] - cy) - (ey - cy) * (b[0] - cx)
+            if d1 * d2 < 0 and d3 * d4 < 0:
+                inside = True
+    if inside:
+        return -wall.thickness / 2
+    corners = [(x0, y0), (x0, y1), (x1, y0), (x1, y1)]
+    gap = min(_point_segment(px, py, a, b) for px, py in corners)
+    for px, py in (a, b):
+        gap = min(gap, math.hypot(max(x0 - px, 0.0, px - x1), max(y0 - py, 0.0, py - y1)))
+    return gap - wall.thickness / 2
+
+
+def layout_problems(scene: Scene) -> list[str]:
+    """What is physically wrong with a scene's layout, one line each (none for a sound scene).
+
+    The schema checks names and references; this checks the geometry a world needs: every location
+    reachable from the robot's start over the edges, inside a room and clear of walls and furniture;
+    no two pieces of furniture, nor furniture and a wall, overlapping; each place position on its
+    support (a furniture part's top, or free floor), within the arm's reach of its location, and
+    apart from the other positions on the same surface.
+    """
+    problems: list[str] = []
+    # The navigation graph is connected.
+    neighbours: dict[str, set[str]] = {loc.name: set() for loc in scene.locations}
+    for a, b in scene.edges:
+        neighbours[a].add(b)
+        neighbours[b].add(a)
+    seen, todo = {scene.robot_start}, [scene.robot_start]
+    while todo:
+        for nxt in neighbours[todo.pop()] - seen:
+            seen.add(nxt)
+            todo.append(nxt)
+    cut_off = [loc.name for loc in scene.locations if loc.name not in seen]
+    if cut_off:
+        problems.append(f"locations {cut_off} cannot be reached from {scene.robot_start!r} over the edges")
+    boxes = [(f"{f.name}/{p.name}", f.name, p) for f in scene.furniture for p in f.parts]
+    footprints = {key: _rect(p.center, p.size) for key, _, p in boxes}
+    # Furniture against furniture and walls.
+    for i, (key, owner, _) in enumerate(boxes):
+        for other, other_owner, _ in boxes[i + 1 :]:
+            if owner != other_owner and _overlap(footprints[key], footprints[other]):
+                problems.append(f"furniture {key} overlaps {other}")
+        for j, wall in enumerate(scene.walls):
+            if _rect_wall_gap(footprints[key], wall) < -1e-6:
+                problems.append(f"furniture {key} overlaps walls[{j}]")
+    # Locations: in a room, clear of walls and furniture.
+    for loc in scene.locations:
+        if scene.rooms and not any(r.x[0] <= loc.x <= r.x[1] and r.y[0] <= loc.y <= r.y[1] for r in scene.rooms):
+            problems.append(f"location {loc.name!r} is in no room")
+        base = _rect((loc.x, loc.y), (2 * BASE_HALF_M, 2 * BASE_HALF_M))
+        for j, wall in enumerate(scene.walls):
+            if _rect_wall_gap(base, wall) < -1e-6:
+                problems.append(f"location {loc.name!r}: the robot would stand in walls[{j}]")
+        for key, _, _ in boxes:
+            if _overlap(base, footprints[key]):
+                problems.append(f"location {loc.name!r}: the robot would stand in furniture {key}")
+    # Place positions: on their support, in reach, apart.
+    for i, pos in enumerate(scene.place_positions):
+        label = f"place position {pos.location} / {pos.name}"
+        region = _rect(pos.center, pos.size)
+        loc = scene.location(pos.location)
+        far = math.hypot(pos.center[0] - loc.x, pos.center[1] - loc.y)
+        if far > REACH_M:
+            problems.append(f"{label}: {far:.2f} m from its location, past the arm's reach ({REACH_M} m)")
+        if pos.support == "floor":
+            for key, _, _ in boxes:
+                if _overlap(region, footprints[key]):
+                    problems.append(f"{label}: the floor there is under furniture {key}")
+            for j, wall in enumerate(scene.walls):
+                if _rect_wall_gap(region, wall) < -1e-6:
+                    problems.append(f"{label}: overlaps walls[{j}]")
+        else:
+            x0, y0, x1, y1 = footprints[pos.support]
+            if not (x0 <= pos.center[0] <= x1 and y0 <= pos.center[1] <= y1):
+                problems.append(f"{label}: its centre is not over {pos.support}")
+        for later in scene.place_positions[i + 1 :]:
+            if later.support == pos.support and _overlap(region, _rect(later.center, later.size)):
+                problems.append(f"{label} overlaps {later.location} / {later.name} on {pos.support}")
+    return problems
