@@ -1,67 +1,30 @@
 """The paper's tasks as fixed action sequences, run through the robot's tools (no MCP, no model).
 
-`python -m robocog.server.world.demo` runs T1 then T2 and prints every action's result and the
+`python -m robocog.server.demo` (`make world-demo`) runs T1 then T2 and prints every action's result and the
 ground-truth verdicts.
 """
 
 from __future__ import annotations
 
 import argparse
-import inspect
 import sys
 import time
 from collections.abc import Sequence
-from typing import Any
 
 from robocog.server.config import SessionConfig
 from robocog.server.session import RobotSession
 from robocog.server.tools import ROBOT_TOOLS
 from robocog.server.world.tasks import evaluate, task_catalogue
 from robocog.server.world.world import World
+from robocog.shared.paper import T1_SEQUENCE, T2_SEQUENCE, Action, action_args
 from robocog.shared.results import ActionResult
-
-Action = tuple[str, ...]
-
-#: T1: look, then cube to the top layer, box to the middle, mug to the bottom (12 actions).
-T1_SEQUENCE: tuple[Action, ...] = (
-    ("look_around",),
-    ("grab", "cube"),
-    ("move_to", "Kitchen Shelf"),
-    ("place", "Kitchen Shelf", "top"),
-    ("move_to", "Living Room"),
-    ("grab", "box"),
-    ("move_to", "Kitchen Shelf"),
-    ("place", "Kitchen Shelf", "middle"),
-    ("move_to", "Kitchen Table"),
-    ("grab", "mug"),
-    ("move_to", "Kitchen Shelf"),
-    ("place", "Kitchen Shelf", "bottom"),
-)
-
-#: T2 after T1: park the cube on the kitchen floor, move the mug up, bring the cube down.
-T2_SEQUENCE: tuple[Action, ...] = (
-    ("grab", "cube"),
-    ("move_to", "Kitchen Area Left"),
-    ("place", "Kitchen Area Left", "floor"),
-    ("move_to", "Kitchen Shelf"),
-    ("grab", "mug"),
-    ("place", "Kitchen Shelf", "top"),
-    ("move_to", "Kitchen Area Left"),
-    ("grab", "cube"),
-    ("move_to", "Kitchen Shelf"),
-    ("place", "Kitchen Shelf", "bottom"),
-)
 
 WORLD_TOOLS = {t.name: t for t in ROBOT_TOOLS if t.name in ("look_around", "move_to", "grab", "place")}
 
 
 def perform(robot: RobotSession, action: Action) -> ActionResult:
     """Run one (tool name, *arguments) action through the session."""
-    name, *args = action
-    tool = WORLD_TOOLS[name]
-    keys = list(inspect.signature(tool.run).parameters)[1:]
-    arguments: dict[str, Any] = dict(zip(keys, args, strict=True))
-    result: ActionResult = robot.call(tool, **arguments)
+    result: ActionResult = robot.call(WORLD_TOOLS[action[0]], **action_args(action))
     return result
 
 

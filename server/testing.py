@@ -30,6 +30,8 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import pytest
 
+from robocog.shared.controls import EvalControls, mcp_call
+
 if TYPE_CHECKING:
     from mcp import Client
     from mcp.server.mcpserver import MCPServer
@@ -50,24 +52,22 @@ class RobocogWorld:
 
     client: Client
 
-    async def _call(self, tool: str, **arguments: Any) -> dict[str, Any]:
-        result = await self.client.call_tool(tool, arguments)
-        if result.is_error or result.structured_content is None:
-            text = " ".join(getattr(c, "text", "") for c in result.content)
-            raise RuntimeError(f"{tool} failed: {text}")
-        return dict(result.structured_content)
+    @property
+    def controls(self) -> EvalControls:
+        """The eval controls, typed (`robocog.shared.controls`)."""
+        return EvalControls(mcp_call(self.client))
 
     async def reset(self, seed: int | None = 0, *, randomize: bool = False) -> dict[str, Any]:
         """The start state again (a new episode); returns the world state."""
-        return await self._call("reset_world", seed=seed, randomize=randomize)
+        return await self.controls.reset_world(seed=seed, randomize=randomize)
 
     async def begin_task(self, task_id: str, *, keep_scratchpad: bool = False) -> dict[str, Any]:
         """A new episode for `task_id`: the world as it is now is what check_task judges against."""
-        return await self._call("begin_task", task_id=task_id, keep_scratchpad=keep_scratchpad)
+        return await self.controls.begin_task(task_id, keep_scratchpad=keep_scratchpad)
 
     async def check_task(self, task_id: str) -> dict[str, Any]:
         """The ground-truth verdict: `success`, `reason`, and `objects` with a reason each."""
-        return await self._call("check_task", task_id=task_id)
+        return (await self.controls.check_task(task_id)).model_dump()
 
     async def assert_task(self, task_id: str) -> dict[str, Any]:
         """Fail the test unless `task_id` truly succeeded; returns the verdict."""

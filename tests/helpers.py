@@ -21,6 +21,10 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+from robocog.shared.paper import T1_SEQUENCE, T2_SEQUENCE, Action, action_args
+
+__all__ = ["T1_SEQUENCE", "T2_SEQUENCE", "Action", "action_args"]
+
 SNAPSHOTS = Path(__file__).parent / "snapshots"
 
 #: The tools a model is offered, in every profile.
@@ -84,45 +88,8 @@ ROOT = TESTS_DIR.parent
 T1 = "Put away all the items into the shelf."
 T2 = "Swap the mug and the cube in the shelf."
 
-#: A robot action as (tool name, *arguments in the order of `action_args`).
-Action = tuple[str, ...]
-
-#: T1: look, then cube to the top layer, box to the middle, mug to the bottom (12 actions).
-T1_SEQUENCE: tuple[Action, ...] = (
-    ("look_around",),
-    ("grab", "cube"),
-    ("move_to", "Kitchen Shelf"),
-    ("place", "Kitchen Shelf", "top"),
-    ("move_to", "Living Room"),
-    ("grab", "box"),
-    ("move_to", "Kitchen Shelf"),
-    ("place", "Kitchen Shelf", "middle"),
-    ("move_to", "Kitchen Table"),
-    ("grab", "mug"),
-    ("move_to", "Kitchen Shelf"),
-    ("place", "Kitchen Shelf", "bottom"),
-)
-
-#: T2 after T1: park the cube on the kitchen floor, move the mug up, bring the cube down.
-T2_SEQUENCE: tuple[Action, ...] = (
-    ("grab", "cube"),
-    ("move_to", "Kitchen Area Left"),
-    ("place", "Kitchen Area Left", "floor"),
-    ("move_to", "Kitchen Shelf"),
-    ("grab", "mug"),
-    ("place", "Kitchen Shelf", "top"),
-    ("move_to", "Kitchen Area Left"),
-    ("grab", "cube"),
-    ("move_to", "Kitchen Shelf"),
-    ("place", "Kitchen Shelf", "bottom"),
-)
-
-
-def action_args(action: tuple[str, ...]) -> dict[str, Any]:
-    """The MCP arguments of a (name, *args) world action (typed `Any`, as `**kwargs` of a tool call)."""
-    name, *args = action
-    keys = {"look_around": [], "move_to": ["location"], "grab": ["object"], "place": ["location", "position"]}[name]
-    return dict(zip(keys, args, strict=True))
+# The paper's action scripts (T1_SEQUENCE, T2_SEQUENCE, action_args) are written once, in
+# robocog.shared.paper; re-exported here for the tests.
 
 
 # --- snapshots -----------------------------------------------------------------------------------

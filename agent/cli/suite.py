@@ -10,9 +10,7 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-from robocog.agent.suitegen.generator import generate
 from robocog.shared.errors import ConfigError
-from robocog.shared.suite import DEFAULT_SUITE, dump_instances, load_families, load_split, load_suite, suite_dir
 
 
 def add_parser(commands: Any) -> argparse.ArgumentParser:
@@ -22,13 +20,13 @@ def add_parser(commands: Any) -> argparse.ArgumentParser:
     )
     sub = parser.add_subparsers(dest="suite_command", required=True)
     gen = sub.add_parser("generate", help="generate a split's instances (byte-identical for the same seed)")
-    gen.add_argument("--suite", default=DEFAULT_SUITE, help=f"suite name or directory (default: {DEFAULT_SUITE})")
+    gen.add_argument("--suite", default=None, help="suite name or directory (default: the suite robocog ships)")
     gen.add_argument("--split", default="dev", help="the split (its seed and size come from suite.yaml)")
     gen.add_argument("--seed", type=int, default=None, help="override the split's seed")
     gen.add_argument("--per-family", type=int, default=None, help="override the instances per family")
     gen.add_argument("-o", "--out", type=Path, default=None, help="write the JSONL here (default: stdout)")
     ls = sub.add_parser("list", help="the suite's families and the instances of its splits")
-    ls.add_argument("--suite", default=DEFAULT_SUITE, help=f"suite name or directory (default: {DEFAULT_SUITE})")
+    ls.add_argument("--suite", default=None, help="suite name or directory (default: the suite robocog ships)")
     ls.add_argument("--split", default=None, help="list this split's instances, one a line")
     return parser
 
@@ -41,6 +39,10 @@ def _table(rows: Iterable[tuple[str, ...]]) -> str:
 
 def main(args: argparse.Namespace) -> int:
     """`robocog suite generate | list`."""
+    from robocog.agent.suitegen.generator import generate  # the families, the symbolic world: only here
+    from robocog.shared.suite import DEFAULT_SUITE, dump_instances, load_families, load_split, load_suite, suite_dir
+
+    args.suite = args.suite or DEFAULT_SUITE
     suite = load_suite(args.suite)
     if args.suite_command == "generate":
         if args.per_family is not None and args.per_family < 1:

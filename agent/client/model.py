@@ -46,7 +46,7 @@ KEYLESS_ROUTES = frozenset({"scripted", "replay", "ollama", "ollama_chat"})
 _configured = False
 
 
-def _litellm() -> Any:
+def configured_litellm() -> Any:
     """LiteLLM, configured once per process: no banners, the offline models registered."""
     global _configured
     import litellm
@@ -65,7 +65,7 @@ def warm_up_litellm(models: Iterable[str] = ()) -> None:
     pays for it: the offline models, the MCP-tools check LiteLLM makes on every call with tools,
     and, for each of `models`, its route (the OpenAI SDK's resources for `openai/...`)."""
     with contextlib.suppress(Exception):  # a real failure shows on the first real call
-        litellm = _litellm()
+        litellm = configured_litellm()
         litellm.completion(model="scripted/refuser", messages=[{"role": "user", "content": "warm up"}])
         import litellm.responses.mcp.chat_completions_handler
         import litellm.responses.mcp.litellm_proxy_mcp_handler
@@ -132,7 +132,7 @@ def _api_key(settings: AgentSettings) -> str | None:
 def _route(model: str) -> tuple[str, str]:
     """(model name, provider) as LiteLLM routes `model`; provider "" when LiteLLM does not know it."""
     try:
-        name, provider, *_ = _litellm().get_llm_provider(model)
+        name, provider, *_ = configured_litellm().get_llm_provider(model)
     except Exception:
         return model, ""
     return str(name), str(provider or "")
@@ -145,7 +145,7 @@ def _supported(model: str) -> frozenset[str] | None:
     if not provider or provider in ("scripted", "replay"):
         return None
     try:
-        supported = _litellm().get_supported_openai_params(model=name, custom_llm_provider=provider)
+        supported = configured_litellm().get_supported_openai_params(model=name, custom_llm_provider=provider)
     except Exception:
         return None
     return frozenset(supported) if supported is not None else None
@@ -198,7 +198,7 @@ def _notice_dropped(model: str, dropped: frozenset[str]) -> None:
 def _priced(model: str) -> bool:
     """Whether LiteLLM's local cost map knows `model` (so its cost is a price, not a guess)."""
     name, provider = _route(model)
-    cost_map = _litellm().model_cost
+    cost_map = configured_litellm().model_cost
     for key in (model, f"{provider}/{name}"):
         if cost_map.get(key, {}).get("input_cost_per_token") is not None:
             return True
@@ -231,7 +231,7 @@ def _call_arguments(settings: AgentSettings) -> dict[str, Any]:
 
 async def complete(settings: AgentSettings, messages: list[dict[str, Any]], tools: list[dict[str, Any]]) -> Any:
     """One model turn: a LiteLLM call, retried as the failure deserves; raises `ModelServiceError`."""
-    litellm = _litellm()
+    litellm = configured_litellm()
     kwargs = _call_arguments(settings)
     for attempt in range(settings.retries + 1):
         try:

@@ -8,7 +8,7 @@ begins its own episode on the server (`begin_task`), so its verdict is judged ag
 at its start and written into its own memory record. A task never ended within the invocation
 limit is a refusal (`stopped`); a failing model service or server is an `error`, never a refusal.
 Ground truth comes from the server's `check_task` after the attempt. The protocol (`paper` or
-`robocog`, see `robocog.agent.client.eval_protocols`) decides the conversation, the messages, the system
+`robocog`, see `robocog.agent.study_protocols`) decides the conversation, the messages, the system
 prompt, the scratchpad's carry-over and the retrieval depth.
 
 Each unit reads and writes a memory namespace of its own (`unit_namespace`), cleared when the unit
@@ -34,7 +34,6 @@ from typing import Any
 
 from robocog.agent.analysis.taxonomy import annotate
 from robocog.agent.client.connection import Robot, ServerSpec, connect, leaf_message
-from robocog.agent.client.eval_protocols import PROTOCOLS, EvalProtocol
 from robocog.agent.client.loop import finish, run_episode
 from robocog.agent.client.model import resolve_api_key
 from robocog.agent.client.settings import AgentSettings
@@ -42,6 +41,7 @@ from robocog.agent.client.trace_sinks import Trace
 from robocog.agent.harness.fleets import Fleets, memory_args
 from robocog.agent.harness.suite_run import SuiteRun
 from robocog.agent.harness.units import SERVER_FAILURE, episode_id, model_seed, runnable, slug, unit_namespace
+from robocog.agent.study_protocols import PROTOCOLS, EvalProtocol
 from robocog.shared import __version__
 from robocog.shared.controls import EvalControls, mcp_call
 from robocog.shared.errors import ConfigError, ServerConnectionError
@@ -115,7 +115,7 @@ class Runner:
         cfg, protocol = self.config, self.protocol
         seed = cfg.seed + trial
         # The unit's memory settings, for every reset (a suite instance's too).
-        reset = {
+        reset: dict[str, Any] = {
             "memory_labels": cfg.memory_labels,
             "search_k": protocol.search_k,
             "memory_namespace": unit_namespace(cfg.name, spec.name, trial),

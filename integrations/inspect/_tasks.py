@@ -48,8 +48,9 @@ from inspect_ai.tool import (
     mcp_tools,
 )
 
-from robocog.agent.client.eval_protocols import PROTOCOLS
 from robocog.agent.policies.planner import decide
+from robocog.agent.study_protocols import PROTOCOLS
+from robocog.shared.controls import EvalControls
 from robocog.shared.protocol import PAPER_TOOLS
 from robocog.shared.tasks import TaskSpec, load_tasks
 
@@ -192,19 +193,23 @@ def nothing_after_end_task() -> Approver:
 # --- the harness's calls on the episode's connection ------------------------------------------------
 
 
-async def control(tools: dict[str, Tool], name: str, **arguments: Any) -> dict[str, Any]:
-    """Call a control tool; its structured result (the JSON text the server sends)."""
-    result = await tools[name](**arguments)
-    data = json.loads(text_of(result))
-    if not isinstance(data, dict):
-        raise RuntimeError(f"{name} answered {data!r}")
-    return data
+def controls_of(tools: dict[str, Tool]) -> EvalControls:
+    """The eval controls through Inspect's MCP tools (a control's result is the JSON text the server sends)."""
+
+    async def call(name: str, arguments: dict[str, Any]) -> dict[str, Any]:
+        data = json.loads(text_of(await tools[name](**arguments)))
+        if not isinstance(data, dict):
+            raise RuntimeError(f"{name} answered {data!r}")
+        return data
+
+    return EvalControls(call)
 
 
 async def play_planner(tools: dict[str, Tool], task_id: str, prompt: str, max_calls: int = 80) -> None:
     """Bring the world to the end of `task_id` with the scripted planner (harness-side, before the
     model's task begins; it stops short of end_task, so memory stays empty); raises if it did not."""
-    await control(tools, "begin_task", task_id=task_id)
+    controls = controls_of(tools)
+    await controls.begin_task(task_id)
     messages: list[dict[str, Any]] = [{"role": "user", "content": prompt}]
     for n in range(max_calls):
         call = decide(messages)
@@ -218,9 +223,9 @@ async def play_planner(tools: dict[str, Tool], task_id: str, prompt: str, max_ca
         function = {"name": call.name, "arguments": json.dumps(call.arguments)}
         messages.append({"role": "assistant", "content": "", "tool_calls": [{"id": call_id, "function": function}]})
         messages.append({"role": "tool", "tool_call_id": call_id, "content": content})
-    verdict = await control(tools, "check_task", task_id=task_id)
-    if not verdict.get("success"):
-        raise RuntimeError(f"setting up: the planner did not complete {task_id}: {verdict.get('reason')}")
+    verdict = await controls.check_task(task_id)
+    if not verdict.success:
+        raise RuntimeError(f"setting up: the planner did not complete {task_id}: {verdict.reason}")
 
 
 # --- solver, scorer, tasks ---------------------------------------------------------------------------
@@ -244,9 +249,8 @@ def robocog_agent(
             server = robocog_server(data_dir)
             async with mcp_connection([server]):
                 tools = {ToolDef(t).name: t for t in await server.tools()}  # controls too
-                await control(
-                    tools,
-                    "reset_world",
+                controls = controls_of(tools)
+                await controls.reset_world(
                     seed=int(meta["seed"]),
                     randomize=bool(meta.get("randomize", False)),
                     memory_labels=memory_labels,
@@ -255,7 +259,7 @@ def robocog_agent(
                 for required in specs[task_id].requires:
                     await play_planner(tools, required, specs[required].prompt)
                     state.store.set(SETUP_KEY, [*state.store.get(SETUP_KEY, []), required])
-                await control(tools, "begin_task", task_id=task_id, keep_scratchpad=False)
+                await controls.begin_task(task_id, keep_scratchpad=False)
                 agent = react(
                     prompt=AgentPrompt(
                         instructions=system_prompt(), handoff_prompt=None, assistant_prompt=None, submit_prompt=None
@@ -270,7 +274,7 @@ def robocog_agent(
                 finally:
                     # The verdict even when a limit cut the episode short (a time limit cancels).
                     with anyio.CancelScope(shield=True):
-                        state.store.set(VERDICT_KEY, await control(tools, "check_task", task_id=task_id))
+                        state.store.set(VERDICT_KEY, (await controls.check_task(task_id)).model_dump())
         finally:
             shutil.rmtree(data_dir, ignore_errors=True)
         return state

@@ -14,8 +14,8 @@ from typing import Any, Literal
 
 import pytest
 
-from robocog.agent.client.eval_protocols import task_of
 from robocog.agent.harness.study import run_eval
+from robocog.agent.study_protocols import task_of
 from robocog.shared.evaluation import AttemptRow, EvalConfig, ModelSpec
 from tests.fake_llm import PLACEHOLDER_KEY, FakeLLM, Request, planner_script
 from tests.helpers import T1, T2
