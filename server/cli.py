@@ -215,6 +215,21 @@ def _processes(text: str) -> int:
     return n
 
 
+def _port_taken(host: str, port: int) -> str | None:
+    """Why `host:port` cannot be listened on (in use, or not this machine's), or None (port 0: free)."""
+    import socket
+
+    if not port:
+        return None
+    with socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET) as probe:
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            probe.bind((host, port))
+        except OSError as exc:
+            return f"cannot listen on {host}:{port}: {exc.strerror or exc}; give another port"
+    return None
+
+
 def _search_k(text: str) -> int:
     try:
         k = int(text)
@@ -281,9 +296,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         except ConfigError as exc:
             print(f"robocog-server: {exc}", file=sys.stderr)
             return 2
+    for flag, host, port in (
+        ("--port", args.host, args.port if args.transport == "http" else 0),
+        ("--view", "127.0.0.1", args.view or 0),
+    ):
+        taken = _port_taken(host, port)
+        if taken:  # one line now, before any banner says where the server is
+            print(f"robocog-server: {flag} {port}: {taken}", file=sys.stderr)
+            return 2
     from robocog.shared.errors import WorldError
     from robocog.shared.memory_names import collection_name, parse_chroma_url
-    from robocog.shared.scene import load_scene, scene_path
+    from robocog.shared.scene_files import load_scene, scene_path
 
     # Fail fast, with the reason on one line, before any client connects (and before PyBullet
     # announces itself on stderr): the scene and every file it names, the memory's address.
@@ -310,9 +333,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.processes > 1:  # a router in front of fleet processes: no robot in this process
         return _route(args, list(argv) if argv is not None else sys.argv[1:], http)
 
-    from robocog.server.world.cstdio import stdout_to_stderr
+    from robocog.server.world.cstdio import c_output_discarded
 
-    with stdout_to_stderr():
+    with c_output_discarded(stderr=True):
         import pybullet  # noqa: F401
 
     from robocog.server.app import build_server

@@ -28,6 +28,8 @@ from typing import Any
 import anyio
 from mcp_types import CallToolResult, ImageContent, TextContent
 
+from robocog.shared.protocol import CONTROL_TOOLS
+
 logger = logging.getLogger("robocog.server.viewer")
 
 #: Events kept for readers that connect late or fall behind.
@@ -169,7 +171,8 @@ class EventBus:
     ) -> CallToolResult:
         """Run `call` (the tool call), publishing a `call` event before and a `result` event after
         (also when it raises), then mark the world for a new snapshot."""
-        self.calls += 1
+        if tool not in CONTROL_TOOLS:  # the header counts the agent's calls, not a harness's begin/check_task
+            self.calls += 1
         started = self.publish("call", {"tool": tool, "arguments": _short(dict(arguments)), "client": client})
         t0 = time.perf_counter()
         data: dict[str, Any] = {"call": started.seq, "tool": tool}

@@ -31,6 +31,7 @@ from mcp.server.mcpserver.exceptions import ToolError
 
 from robocog.server.config import DEFAULT_SESSION_IDLE_S, SessionConfig
 from robocog.server.ownership import Driver, RobotLease
+from robocog.shared.protocol import FLEET_FULL
 
 if TYPE_CHECKING:
     from robocog.server.memory.episodic import EpisodicMemory
@@ -171,7 +172,7 @@ class Fleet:
                 self._free.remove(robot)
             else:
                 raise FleetFull(
-                    f"all {self.capacity} robots of this server are driven by other sessions (--robots "
+                    f"all {self.capacity} {FLEET_FULL} (--robots "
                     f"{self.capacity}); close a session, wait for one to idle out, or start the server with "
                     "more robots"
                 )

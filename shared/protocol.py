@@ -7,6 +7,10 @@ MODEL_META_KEY = "robocog/model"
 #: name itself as the robot's driver: the robot is held by one driver at a time (see server/ownership.py).
 DRIVER_META_KEY = "robocog/driver"
 
+#: Words every "the fleet is full" error of a server holds (a tool or resource error, a 503 at initialize):
+#: a client reports it as the server's answer and stops, never as the model's failure.
+FLEET_FULL = "robots of this server are driven by other sessions"
+
 #: The eval profile's controls for harnesses: a client never offers them to the model it drives.
 CONTROL_TOOLS = frozenset({"reset_world", "begin_task", "check_task", "clear_memory"})
 

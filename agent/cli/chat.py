@@ -7,7 +7,7 @@ import asyncio
 from typing import Any
 
 from robocog.agent.cli.options import EPILOG, add_connection, add_model, add_view, check_options
-from robocog.agent.cli.run import preload_litellm, run_tasks
+from robocog.agent.cli.run import preload_litellm, prepare, run_tasks
 
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:
@@ -25,6 +25,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
 
 def main(args: argparse.Namespace) -> int:
     check_options(args)
+    prepare(args)
     loader = preload_litellm(args.model)
-    print("Type a task (or a task id such as T1); an empty line or /quit ends the session.")
+    print("Type a task (or a task id such as T1); an empty line, /quit or Ctrl-D ends the session.")
     return asyncio.run(run_tasks(args, None, loader))

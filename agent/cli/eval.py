@@ -97,6 +97,13 @@ def main(args: argparse.Namespace) -> int:
         flag = "--" + str(problem["loc"][0]).replace("_", "-")
         print(f"robocog: {flag}: {problem['msg']}", file=sys.stderr)
         return 2
+    if config.suite is None:  # the paper's tasks: each must be in the catalogue, before any server starts
+        from robocog.agent.cli.preflight import unknown_task_id
+
+        unknown = next(filter(None, (unknown_task_id(t, instructions=False) for t in config.tasks)), None)
+        if unknown is not None:
+            print(f"robocog: {args.config}: tasks: {unknown}", file=sys.stderr)
+            return 2
     try:  # every worker's server gets these: a bad one would fail each of them at start
         command = shlex.split(args.server_cmd or "")
         origins = ((config.server_args, f"{args.config}: server_args"), (command, "--server-cmd"))

@@ -11,7 +11,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from robocog.agent.client.eval_protocols import PROTOCOLS
+from robocog.agent.study_protocols import PROTOCOLS
 from robocog.shared.errors import ConfigError
 
 if TYPE_CHECKING:  # only for the annotations: the CLI starts without importing the MCP SDK or LiteLLM
@@ -215,7 +215,7 @@ def check_server_args(argv: Sequence[str], *, data_dir: bool, where: str) -> Non
     its `--scene` (and the files that scene names), no `--memory-url` where a `--data-dir` is also
     given, and a Chroma server listening at `--memory-url`. `where` names the arguments' origin in
     the error ("--server-cmd", "study.yaml: server_args")."""
-    from robocog.shared.scene import load_scene, scene_path
+    from robocog.shared.scene_files import load_scene, scene_path
 
     for scene in flag_values(argv, "--scene"):
         load_scene(scene_path(scene))  # a shipped scene's name, or a path

@@ -21,7 +21,14 @@ from robocog.agent.cli.options import (
 from robocog.agent.cli.options import (
     settings as agent_settings,
 )
-from robocog.agent.client.eval_protocols import PROTOCOLS
+from robocog.agent.cli.preflight import check_model, check_task_words, free_viewer_port, memory_line, unknown_task_id
+from robocog.agent.study_protocols import PROTOCOLS
+
+#: What a run under a protocol other than robocog's says at its start.
+PROTOCOL_NOTES = {
+    "paper": "the paper's messages and system prompt, one conversation across the tasks, the scratchpad kept, "
+    "top-5 memory retrieval (numbers comparable with the paper's)",
+}
 
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:
@@ -40,8 +47,23 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
 
 def main(args: argparse.Namespace) -> int:
     check_options(args)
+    check_task_words(args.tasks)
+    prepare(args)
     loader = preload_litellm(args.model)  # seconds: start at once
     return asyncio.run(run_tasks(args, args.tasks, loader))
+
+
+def prepare(args: argparse.Namespace) -> None:
+    """What `run` and `chat` check and say before the server starts: the model (LiteLLM must know
+    its provider), the live viewer's port (free; 0 picks one), then which memory the run uses and
+    how many records it holds, and the protocol when it is the paper's."""
+    check_model(args.model, args.api_base, args.api_key)
+    if getattr(args, "view", None) is not None:
+        args.view = free_viewer_port(args.view)
+    if not args.url:
+        print(memory_line(args.data_dir, args.memory_namespace, args.server_cmd), file=sys.stderr)
+    if args.protocol != "robocog":
+        print(f"robocog: protocol {args.protocol}: {PROTOCOL_NOTES[args.protocol]}", file=sys.stderr)
 
 
 def preload_litellm(model: str) -> threading.Thread:
@@ -73,6 +95,7 @@ async def run_tasks(args: argparse.Namespace, tasks: Sequence[str] | None, loade
         print(f"robocog: live viewer at http://127.0.0.1:{args.view}/", file=sys.stderr)
     async with connect(server_spec(args)) as robot:
         controls = EvalControls(mcp_call(robot.client, ServerConnectionError))
+        await robot.claim()  # a full fleet: one line and exit 2, before the model starts
         if loader is not None:
             await asyncio.to_thread(loader.join)
         try:
@@ -80,6 +103,12 @@ async def run_tasks(args: argparse.Namespace, tasks: Sequence[str] | None, loade
         except ModelServiceError as exc:
             print(f"robocog: {exc}", file=sys.stderr)
             return 2
+        if not robot.can_check:
+            print(
+                f"robocog: the server at {robot.label} has no ground truth for the client (it runs without "
+                "--profile eval): no task is checked, and no 'Test results' line follows",
+                file=sys.stderr,
+            )
         pending = list(tasks) if tasks is not None else None
         while True:
             task: str | None
@@ -89,6 +118,10 @@ async def run_tasks(args: argparse.Namespace, tasks: Sequence[str] | None, loade
                 task = await asyncio.to_thread(_ask)
             if task is None:
                 break
+            problem = unknown_task_id(task, robot.tasks) if pending is None and robot.tasks else None
+            if problem is not None:  # typed at the prompt: say so, and ask again
+                print(f"robocog: {problem}", file=sys.stderr)
+                continue
             prompt = robot.tasks.get(task, task)
             task_id = robot.task_id_for(prompt)
             if robot.can_check and task_id is not None:  # the task's own episode, judged on its own
@@ -118,7 +151,25 @@ async def run_tasks(args: argparse.Namespace, tasks: Sequence[str] | None, loade
             if result.error:
                 print(f"robocog: {result.error}", file=sys.stderr)
             ok = ok and finished.ended and bool(finished.believed_success) and finished.true_success is not False
+        if getattr(args, "view", None):
+            await keep_viewing(f"http://127.0.0.1:{args.view}/")
     return 0 if ok else 1
+
+
+async def keep_viewing(url: str) -> None:
+    """After the run, keep the server (and its live viewer) up until Ctrl-C or SIGTERM."""
+    import signal
+
+    stop = asyncio.Event()
+    loop = asyncio.get_running_loop()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        loop.add_signal_handler(sig, stop.set)
+    print(f"robocog: the run is over; the live viewer stays at {url} until Ctrl-C", file=sys.stderr, flush=True)
+    try:
+        await stop.wait()
+    finally:
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            loop.remove_signal_handler(sig)
 
 
 def _ask() -> str | None:
@@ -127,5 +178,5 @@ def _ask() -> str | None:
     except EOFError:
         return None
     if text in ("", "/quit", "/exit", "quit", "exit"):
-        return None if text else _ask()
+        return None  # an empty line ends the session, as the banner says
     return text

@@ -23,6 +23,7 @@ from mcp_types import Tool
 
 from robocog.shared import __version__
 from robocog.shared.errors import ServerConnectionError
+from robocog.shared.protocol import FLEET_FULL
 
 
 def default_server_command() -> list[str]:
@@ -76,6 +77,21 @@ class Robot:
             result = await self.client.get_prompt(name)
             self._prompts[name] = "\n".join(getattr(m.content, "text", "") for m in result.messages)
         return self._prompts[name]
+
+    async def claim(self) -> None:
+        """Take this client's robot before the model starts (reading the semantic map binds it, as a
+        tool call would): when a fleet has no robot free, `ServerConnectionError` with the server's
+        own sentence, so a full fleet is never mistaken for the model's failure."""
+        try:
+            await self.client.read_resource("robocog://world/map")
+            return
+        except Exception:  # a resource error hides its reason: a read-only tool call that fails says it
+            result = await self.client.call_tool("view_scratchpad", {})
+        text = " ".join(getattr(block, "text", "") for block in result.content)
+        if result.is_error and FLEET_FULL in text:
+            reason = text.removeprefix("Error executing tool view_scratchpad: ")
+            raise ServerConnectionError(f"the robot server at {self.label}: {reason}")
+        # any other answer is the model's to meet on its first call, as before
 
     @property
     def can_check(self) -> bool:

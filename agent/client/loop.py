@@ -4,7 +4,7 @@ The client talks to the robot only through MCP. Each model turn may carry severa
 executed in order; their results go back to the model. When the model stops without calling
 end_task it is re-invoked with the task restated (the paper's protocol), up to `max_invocations`;
 a task that is never ended is recorded as stopped (a refusal); a failing model service or server is
-an error, never a refusal. What the messages say is the protocol's (see `robocog.agent.client.eval_protocols`).
+an error, never a refusal. What the messages say is the protocol's (see `robocog.agent.study_protocols`).
 A picture in a tool result goes to the model only when it takes images (`AgentSettings.vision`), in a
 user message after the turn's tool messages (see `model.image_message`); the trace keeps it as a file.
 """
@@ -20,12 +20,12 @@ from typing import Any, Literal, cast
 from mcp import Client
 from mcp_types import RequestParamsMeta, Tool
 
-from robocog.agent.client.eval_protocols import DESCRIPTION_URI, PROTOCOLS, EvalProtocol
 from robocog.agent.client.model import IMAGE_OMITTED, assistant_message, complete, image_message, usage
 from robocog.agent.client.settings import AgentSettings
 from robocog.agent.client.trace_sinks import Trace
+from robocog.agent.study_protocols import DESCRIPTION_URI, PROTOCOLS, EvalProtocol
 from robocog.shared.errors import ModelServiceError, ServerConnectionError
-from robocog.shared.protocol import CONTROL_TOOLS, MODEL_META_KEY, VISION_TOOLS
+from robocog.shared.protocol import CONTROL_TOOLS, FLEET_FULL, MODEL_META_KEY, VISION_TOOLS
 from robocog.shared.trace import ModelTurn, Reinvoked, RunFinished, RunStarted, ToolCall, ToolResult, Verdict
 
 Outcome = Literal["ended", "stopped", "error"]
@@ -270,6 +270,8 @@ async def _execute(
         except Exception as exc:  # the server or the transport failed: the run cannot go on
             raise ServerConnectionError(f"the robot server failed on {name}: {exc}") from exc
         content, is_error = _text(result), bool(result.is_error)
+        if is_error and FLEET_FULL in content:  # the server has no robot for this client: not the model's doing
+            raise ServerConnectionError(f"the robot server refused {name}: {content}")
         structured = result.structured_content if isinstance(result.structured_content, dict) else None
         for mime_type, data in _pictures(result):
             references.append(trace.save_image(base64.b64decode(data), tool=name, mime_type=mime_type))

@@ -86,7 +86,8 @@ class Trace:
 
     def _print(self, event: TraceEvent) -> None:
         if isinstance(event, RunStarted):
-            self._line("SYSTEM", "bold dark_orange", f'Executing prompt: "{event.task}" with {event.model}')
+            protocol = f" under the {event.protocol} protocol" if event.protocol not in (None, "robocog") else ""
+            self._line("SYSTEM", "bold dark_orange", f'Executing prompt: "{event.task}" with {event.model}{protocol}')
         elif isinstance(event, ModelTurn):
             content = event.message.get("content")
             if content:

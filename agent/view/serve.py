@@ -54,6 +54,7 @@ def attempt_json(index: int, row: AttemptRow, results_dir: Path) -> dict[str, An
         "index": index,
         "model": row.model,
         "task": row.task,
+        "family": row.family,
         "trial": row.trial,
         "iteration": row.memory_iteration,
         "outcome": row.outcome,

@@ -8,6 +8,8 @@
   const MAX_TIMES = 2000;
   // Calls after which the last picture the agent got no longer shows the world as it is.
   const MOVES = new Set(["move_to", "grab", "place", "reset_world", "begin_task"]);
+  // The eval profile's controls (robocog.shared.protocol.CONTROL_TOOLS): a harness's, not the agent's.
+  const CONTROLS = new Set(["reset_world", "begin_task", "check_task", "clear_memory"]);
   const $ = (id) => document.getElementById(id);
   const view = {
     scene: null, world: null, seq: 0, stateSeq: 0, calls: 0,
@@ -83,7 +85,7 @@
     if (ev.image) view.look = { seq: ev.seq, tool: ev.tool, what: ev.structured ? ev.structured.direction : "" };
     else if (MOVES.has(ev.tool) && !ev.is_error) view.lastMove = ev.seq;
     if (ev.tool === "reset_world" || ev.tool === "begin_task") { view.trail = []; view.route = null; }
-    view.calls += 1;
+    if (!CONTROLS.has(ev.tool)) view.calls += 1; // the agent's calls: a harness's begin_task or check_task is not one
     $("call-count").textContent = view.calls;
     view.resultTimes.push(Date.now());
     if (view.resultTimes.length > MAX_TIMES) view.resultTimes.splice(0, view.resultTimes.length - MAX_TIMES);

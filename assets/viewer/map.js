@@ -70,10 +70,19 @@ window.RobocogMap = (function () {
     line(extra.route, "rgba(232,89,12,0.95)", 3.5);
     for (const l of scene.locations) {
       ctx.fillStyle = "#2b8a3e"; ctx.beginPath(); ctx.arc(T.px(l.x), T.py(l.y), 4.5 * d, 0, 2 * Math.PI); ctx.fill();
-      ctx.fillStyle = "#1e6b2f"; ctx.font = font(11);
-      ctx.fillText(l.name, T.px(l.x) + 7 * d, T.py(l.y) + 14 * d);
     }
-    if (!world) return;
+    // Location names start past the robot's footprint and are drawn last, with a halo: the robot
+    // standing at a location never hides the start of its name.
+    const clear = Math.max(7 * d, (Math.max(...scene.robot.size) / 2) * T.s + 4 * d);
+    const labels = () => {
+      ctx.font = font(11); ctx.lineJoin = "round"; ctx.lineWidth = 3 * d; ctx.strokeStyle = "rgba(255,255,255,0.85)";
+      ctx.fillStyle = "#1e6b2f";
+      for (const l of scene.locations) {
+        ctx.strokeText(l.name, T.px(l.x) + clear, T.py(l.y) + 14 * d);
+        ctx.fillText(l.name, T.px(l.x) + clear, T.py(l.y) + 14 * d);
+      }
+    };
+    if (!world) { labels(); return; }
     const robot = world.robot;
     const stacked = [];  // label anchors: objects within 0.4 m of one (a shelf's layers) share it, a line each
     const objects = world.objects.slice().sort((a, b) => b.xyz[2] - a.xyz[2]);
@@ -108,6 +117,7 @@ window.RobocogMap = (function () {
     ctx.fillStyle = "#1f6feb"; ctx.font = font(12, "bold"); ctx.textAlign = "center";
     ctx.fillText(robot.holding ? `robot holding ${robot.holding}` : "robot", rx, ry - (sy / 2) * T.s - 6 * d);
     ctx.textAlign = "start";
+    labels();
   }
 
   function locations(scene) {

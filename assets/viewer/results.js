@@ -5,7 +5,7 @@
   const $ = (id) => document.getElementById(id);
   const state = { study: null, shown: [], open: null };
   window.robocogResults = state;
-  const FILTERS = [["f-model", "model"], ["f-task", "task"], ["f-trial", "trial"], ["f-iteration", "iteration"], ["f-outcome", "outcome"]];
+  const FILTERS = [["f-model", "model"], ["f-family", "family"], ["f-task", "task"], ["f-trial", "trial"], ["f-iteration", "iteration"], ["f-outcome", "outcome"]];
   const MAX_TEXT = 4000;
 
   function el(tag, cls, content) {
@@ -24,11 +24,28 @@
     $("pane-report").hidden = name !== "report";
   }
 
+  const sorted = (values) => [...new Set(values)].sort((a, b) => (a < b ? -1 : a > b ? 1 : 0));
+  function options(id, values) {
+    const keep = $(id).value;
+    $(id).replaceChildren(el("option", null, "all"));
+    $(id).firstChild.value = "";
+    for (const v of values) { const o = el("option", null, String(v)); o.value = String(v); $(id).append(o); }
+    $(id).value = values.map(String).includes(keep) ? keep : "";
+  }
+
+  // The task filter lists the tasks of the family chosen (a suite study has tens of instances).
+  function taskOptions() {
+    const family = $("f-family").value;
+    options("f-task", sorted(state.study.attempts.filter((a) => family === "" || a.family === family).map((a) => a.task)));
+  }
+
   function fillFilters(attempts) {
+    const families = sorted(attempts.map((a) => a.family).filter((f) => f));
+    $("family-filter").hidden = families.length === 0;
     for (const [id, key] of FILTERS) {
-      const values = [...new Set(attempts.map((a) => a[key]))].sort((a, b) => (a < b ? -1 : a > b ? 1 : 0));
-      for (const v of values) { const o = el("option", null, String(v)); o.value = String(v); $(id).append(o); }
-      $(id).addEventListener("change", list);
+      if (id === "f-task") taskOptions();
+      else options(id, key === "family" ? families : sorted(attempts.map((a) => a[key])));
+      $(id).addEventListener("change", () => { if (id === "f-family") taskOptions(); list(); });
     }
     $("f-truth").addEventListener("change", list);
   }
@@ -50,8 +67,12 @@
       const tr = el("tr", a.has_trace ? "" : "notrace");
       tr.dataset.index = a.index;
       if (state.open === a.index) tr.classList.add("selected");
-      const cells = [a.index, a.model, a.task, a.trial, a.iteration];
-      for (const c of cells) tr.append(el("td", null, String(c)));
+      const cells = [[a.index, ""], [a.model, "name"], [a.task, "name task"], [a.trial, ""], [a.iteration, ""]];
+      for (const [c, cls] of cells) {
+        const td = el("td", cls || null, String(c));
+        if (cls) td.title = String(c); // a long model or instance id is cut to fit; the full name on hover
+        tr.append(td);
+      }
       const outcome = el("td"); outcome.append(tag(a.outcome)); tr.append(outcome);
       const b = el("td"); b.append(belief(a)); tr.append(b);
       const t = el("td"); t.append(tag(a.true_success ? "success" : "failure")); tr.append(t);
@@ -62,6 +83,16 @@
       body.append(tr);
     }
     $("shown-count").textContent = `${state.shown.length} of ${state.study.attempts.length} attempts`;
+    if (state.open !== null && !state.shown.some((a) => a.index === state.open)) closeTrace();
+  }
+
+  // The trace shown belongs to a row the filters hide: the pane goes back to its hint.
+  function closeTrace() {
+    state.open = null;
+    const pane = $("trace-pane");
+    pane.replaceChildren(el("div", "muted", "Pick an attempt with a trace to see it step by step."));
+    delete pane.dataset.open;
+    history.replaceState(null, "", location.pathname + location.search);
   }
 
   function step(ev, index) {
@@ -92,6 +123,7 @@
         head.append(el("span", "small muted", ` ${(1000 * ev.latency_s).toFixed(0)} ms`));
         const s = ev.structured || {};
         pre(s.message || s.reason || ev.content);
+        details(li, ev.name, s);
         for (const path of ev.images || []) {
           const img = el("img");
           img.src = `/api/attempts/${index}/files/${path.split("/").map(encodeURIComponent).join("/")}`;
@@ -120,6 +152,27 @@
     return li;
   }
 
+  // What a tool result holds beyond its message: search_memory's records as a list, any other
+  // fields (look_around's state, a place's positions) as JSON under "details".
+  function details(li, name, s) {
+    if (name === "search_memory" && Array.isArray(s.results)) {
+      const ul = el("ul", "records");
+      for (const r of s.results) {
+        const item = el("li");
+        item.append(tag(r.status || "unknown"), el("b", null, ` ${r.task_description || ""}`));
+        if (r.summary) item.append(el("div", "small", cut(String(r.summary))));
+        ul.append(item);
+      }
+      if (s.results.length) li.append(ul);
+    }
+    const rest = Object.fromEntries(Object.entries(s).filter(([k]) => !["status", "message", "reason"].includes(k) &&
+      !(name === "search_memory" && k === "results")));
+    if (Object.keys(rest).length === 0) return;
+    const box = el("details", "fields");
+    box.append(el("summary", "small muted", `details: ${Object.keys(rest).join(", ")}`), el("pre", null, cut(JSON.stringify(rest, null, 1))));
+    li.append(box);
+  }
+
   async function openTrace(index) {
     state.open = index;
     for (const tr of $("attempts").tBodies[0].rows) tr.classList.toggle("selected", Number(tr.dataset.index) === index);
@@ -146,6 +199,15 @@
     pane.dataset.open = String(index);
   }
 
+  // The attempt the address names (#attempt=N), on load and whenever the address changes.
+  async function fromHash() {
+    const m = /attempt=(\d+)/.exec(location.hash);
+    const index = m ? Number(m[1]) : null;
+    if (index !== null && index !== state.open && state.study.attempts[index] && state.study.attempts[index].has_trace) {
+      await openTrace(index);
+    }
+  }
+
   async function start() {
     const r = await fetch("/api/study", { cache: "no-store" });
     const study = await r.json();
@@ -157,8 +219,8 @@
     fillFilters(study.attempts);
     list();
     for (const b of document.querySelectorAll(".tabs button")) b.addEventListener("click", () => tab(b.dataset.tab));
-    const m = /attempt=(\d+)/.exec(location.hash);
-    if (m && study.attempts[Number(m[1])] && study.attempts[Number(m[1])].has_trace) await openTrace(Number(m[1]));
+    window.addEventListener("hashchange", fromHash);
+    await fromHash();
     document.body.dataset.ready = "true";
   }
   start();

@@ -13,12 +13,13 @@ import pybullet
 import pybullet_data
 from pybullet_utils.bullet_client import BulletClient
 
-from robocog.server.world.cstdio import stdout_to_stderr
+from robocog.server.world.cstdio import c_output_discarded
 from robocog.server.world.navigation import SemanticMap
 from robocog.server.world.robot import Robot
 from robocog.server.world.sim import Body, Position, Sim
 from robocog.shared.errors import WorldError
-from robocog.shared.scene import RobotSpec, Scene, SceneObject, Wall, resolve_urdf
+from robocog.shared.robot_spec import RobotSpec, resolve_urdf
+from robocog.shared.scene import Scene, SceneObject, Wall
 
 
 def connect(gui: bool) -> BulletClient:
@@ -28,7 +29,7 @@ def connect(gui: bool) -> BulletClient:
             "the PyBullet GUI needs a display, and none is set (DISPLAY is empty); "
             "run headless (the default) or start an X server such as Xvfb"
         )
-    with stdout_to_stderr():
+    with c_output_discarded():
         client = BulletClient(connection_mode=pybullet.GUI if gui else pybullet.DIRECT)
     client.setAdditionalSearchPath(pybullet_data.getDataPath())
     return client

@@ -153,6 +153,7 @@ def capture(world: World, direction: str = "ahead", *, width: int = WIDTH, heigh
     rgb = np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3].copy()
     segmentation = np.asarray(seg, dtype=np.int32).reshape(height, width)
     rgb[segmentation < 0] = BACKGROUND  # nothing there (above the walls): a ceiling, not blank paper
+    _legible(rgb, segmentation)
     buffer = np.asarray(depth, dtype=np.float32).reshape(height, width)
     metres = (FAR_M * NEAR_M / (FAR_M - (FAR_M - NEAR_M) * buffer)).astype(np.float32)
     return CameraView(
@@ -221,6 +222,26 @@ def caption(world: World, view: CameraView) -> Caption:
 
 
 # --- helpers ---------------------------------------------------------------------------------------
+
+#: Surfaces darker than this (0-255 luma) are lifted: flat-shaded, a black TV a step away would
+#: fill half the frame with pure black, which reads as a broken picture rather than a screen.
+DARK_LUMA = 40
+
+
+def _legible(rgb: Image, segmentation: npt.NDArray[np.int32]) -> None:
+    """In place: lift near-black surfaces to a dark grey, and draw each body's outline (a line where
+    the body seen changes: lighter on dark pixels, darker on light ones), so that a dark object close
+    to the lens shows as an object with edges."""
+    luma = rgb.astype(np.int32) @ np.array([77, 150, 29], dtype=np.int32) >> 8
+    dark = luma < DARK_LUMA
+    rgb[dark] = rgb[dark] // 2 + DARK_LUMA
+    edge = np.zeros(segmentation.shape, dtype=bool)
+    edge[:, 1:] |= segmentation[:, 1:] != segmentation[:, :-1]
+    edge[1:, :] |= segmentation[1:, :] != segmentation[:-1, :]
+    lift = edge & dark
+    rgb[lift] = np.minimum(rgb[lift].astype(np.int16) + 70, 255).astype(np.uint8)
+    shade = edge & ~dark
+    rgb[shade] = (rgb[shade].astype(np.uint16) * 3 // 4).astype(np.uint8)
 
 
 def _wrap(degrees: float) -> float:

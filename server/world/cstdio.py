@@ -32,3 +32,25 @@ def stdout_to_stderr() -> Iterator[None]:
         flush_c_stdio()
         os.dup2(saved, 1)
         os.close(saved)
+
+
+@contextlib.contextmanager
+def c_output_discarded(*, stderr: bool = False) -> Iterator[None]:
+    """Point fd 1 (and fd 2, with `stderr`) at /dev/null for a while: PyBullet's banner at import
+    (`pybullet build time: ...`, on stderr) and its `argv[0]=` on connect (on stdout) say nothing a
+    user needs. A Python exception raised meanwhile is printed after, where stderr points again."""
+    fds = (1, 2) if stderr else (1,)
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = [os.dup(fd) for fd in fds]
+    null = os.open(os.devnull, os.O_WRONLY)
+    for fd in fds:
+        os.dup2(null, fd)
+    os.close(null)
+    try:
+        yield
+    finally:
+        flush_c_stdio()
+        for fd, copy in zip(fds, saved, strict=True):
+            os.dup2(copy, fd)
+            os.close(copy)
