@@ -8,7 +8,7 @@ export LITELLM_LOCAL_MODEL_COST_MAP := True
 export ANONYMIZED_TELEMETRY := False
 export PYTHONDONTWRITEBYTECODE := 1
 
-.PHONY: help demo world-demo test chromium bench fuzz lint format server inspector conformance clean
+.PHONY: help demo world-demo test chromium bench fuzz lint format server inspector conformance docs bundle bundle-check clean
 
 help: ## Show this help
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-12s %s\n", $$1, $$2}'
@@ -17,7 +17,19 @@ $(STAMP): pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e ".[dev,inspect,browser,ray]"
-	@touch $(STAMP)
+	@touch $(STAMP) $(CORE)
+
+# The core alone (`pip install -e .`: the server, the client, evaluation, reports) for the targets
+# that need nothing more, so `make demo` on a fresh clone installs no extra; a full install holds it.
+# uv installs it (yours, or pip installs uv first), without compiling every module to bytecode: the
+# targets below write the bytecode of what they import, once, under $(PYCACHE) (not in the source tree).
+CORE := $(VENV)/.installed-core
+$(CORE): pyproject.toml
+	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	@if [ $(STAMP) -nt pyproject.toml ]; then :; else \
+		uv=$$(command -v uv || echo $(BIN)/uv); test -x $$uv || $(BIN)/python -m pip install --quiet uv; \
+		echo "installing the core with $$uv"; $$uv pip install --quiet --python $(BIN)/python -e .; fi
+	@touch $(CORE)
 
 # Type checkers cannot follow setuptools' editable finder through our package-dir mapping, so mypy
 # reads the packages through a tree of directory links laid out as `robocog/...` (new files appear
@@ -28,18 +40,19 @@ $(TYPES):
 	@for d in shared server agent assets; do ln -sfn ../../../$$d $(TYPES)/$$d; done
 	@ln -sfn ../../../integrations/inspect $(TYPES)/inspect
 
-demo: $(STAMP) ## The scripted planner does T1 then T2 through MCP; prints the trace and the ground truth
+PYCACHE := PYTHONDONTWRITEBYTECODE= PYTHONPYCACHEPREFIX=$(abspath $(VENV))/pycache
+demo: $(CORE) ## The scripted planner does T1 then T2 through MCP (installs the core only); the trace, the ground truth
 	@rm -rf .demo-memory
-	$(BIN)/robocog run T1 T2 --model scripted/planner --data-dir .demo-memory --trace .demo-trace.jsonl
+	$(PYCACHE) $(BIN)/robocog run T1 T2 --model scripted/planner --data-dir .demo-memory --trace .demo-trace.jsonl
 	@echo "trace written to .demo-trace.jsonl"
 
-world-demo: $(STAMP) ## T1 then T2 as fixed action sequences on the world itself (no MCP, no model)
-	$(BIN)/python -m robocog.server.world.demo
+world-demo: $(CORE) ## T1 then T2 as fixed action sequences on the world itself (no MCP, no model)
+	$(PYCACHE) $(BIN)/python -m robocog.server.demo
 
 # The suite runs on TEST_WORKERS processes (pytest-xdist), each taking whole modules, so a module's
 # shared server or Ray cluster starts once; `make test TEST_WORKERS=0` runs it in one process.
 TEST_WORKERS ?= 2
-test: $(STAMP) chromium ## Run the test suite (offline; no API key needed)
+test: $(STAMP) $(TYPES) chromium ## Run the test suite (offline; no API key needed)
 	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) --dist loadfile
 
 # The viewers' browser tests drive the system's Chromium (Playwright cannot download its own here):
@@ -58,16 +71,17 @@ fuzz: $(STAMP) ## Attack the server: a long Hypothesis run, then 25,000 hostile 
 	ROBOCOG_FUZZ=long $(BIN)/python -m pytest -q tests/integration/test_fuzz.py
 	$(BIN)/python tests/bench/fuzz.py
 
-lint: $(STAMP) $(TYPES) ## ruff check + format check, then mypy (shared strict; server, agent, tests)
+lint: $(STAMP) $(TYPES) ## ruff check + format check, the import contracts (import-linter), then mypy
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
+	PYTHONPATH=build/typecheck $(BIN)/lint-imports --no-cache
 	$(BIN)/mypy -p robocog.shared -p robocog.server -p robocog.agent -p robocog.inspect -p tests
 
 format: $(STAMP) ## Format the code with ruff
 	$(BIN)/ruff check --fix .
 	$(BIN)/ruff format .
 
-server: $(STAMP) ## Start the MCP server over streamable HTTP on 127.0.0.1:8765
+server: $(CORE) ## Start the MCP server over streamable HTTP on 127.0.0.1:8765
 	$(BIN)/robocog-server --transport http --port 8765
 
 conformance: $(STAMP) ## The official MCP conformance suite (pinned, via npm) against the HTTP server
@@ -76,5 +90,26 @@ conformance: $(STAMP) ## The official MCP conformance suite (pinned, via npm) ag
 inspector: $(STAMP) ## Open the MCP Inspector on the stdio server (needs Node.js and network for npx)
 	npx @modelcontextprotocol/inspector $(abspath $(BIN))/robocog-server
 
+# The docs site (MkDocs + Material; the API from docstrings): mkdocs' hooks (docs/hooks/) write the tool
+# reference from the published contract and the code map from the tree; --strict fails on a broken link.
+DOCS_STAMP := $(VENV)/.installed-docs
+$(DOCS_STAMP): pyproject.toml | $(CORE)
+	$$(command -v uv || echo $(BIN)/uv) pip install --quiet --python $(BIN)/python -e ".[docs]"
+	@touch $(DOCS_STAMP)
+
+docs: $(DOCS_STAMP) $(TYPES) ## Build the docs site into build/site (strict: a broken link or reference fails)
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet --site-dir build/site
+	@echo "docs written to build/site/index.html"
+
+bundle: $(STAMP) ## Build the MCP Bundle dist/robocog.mcpb (manifest 0.4, server type uv; needs the package index)
+	$(BIN)/python packaging/build_bundle.py
+
+# The official packer (pinned, from npm) validates the manifest and packs the staged bundle (needs Node.js).
+MCPB := npx --yes @anthropic-ai/mcpb@2.1.2
+bundle-check: ## Check the bundle with the official MCP Bundle packer (needs Node.js; builds it when missing)
+	@test -f build/bundle/manifest.json || $(MAKE) bundle
+	$(MCPB) validate build/bundle/manifest.json
+	$(MCPB) pack build/bundle build/robocog-mcpb-check.mcpb
+
 clean: ## Remove the virtualenv and caches
-	rm -rf $(VENV) build .cache .pytest_cache .ruff_cache .mypy_cache
+	rm -rf $(VENV) build dist .cache .pytest_cache .ruff_cache .mypy_cache

@@ -28,6 +28,7 @@ COMMANDS: dict[str, str] = {
     "view": "view",
     "suite": "suite",
     "contract": "contract",
+    "serve": "serve",
 }
 
 
@@ -50,7 +51,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    given = list(sys.argv[1:] if argv is None else argv)
+    if given[:1] == ["serve"]:  # every option after it is the server's own (argparse would claim --help)
+        return int(command_module("serve").main(argparse.Namespace(server_args=given[1:])))
+    args = build_parser().parse_args(given)
     try:
         code: int = command_module(args.command).main(args)
         return code
