@@ -233,7 +233,9 @@ def test_robocog_run_with_a_refused_key_prints_one_line_and_fails(fake: FakeLLM,
         env=env,
     )
     assert done.returncode != 0
-    assert [line for line in done.stderr.splitlines() if line.startswith("robocog:")] == [
+    problems = [line for line in done.stderr.splitlines() if line.startswith("robocog:")]
+    assert problems[0].startswith("robocog: memory: ")  # each run names its memory first (informational)
+    assert problems[1:] == [
         "robocog: ModelServiceError: openai/fake-model answered 401 (authentication): invalid api key"
     ], done.stderr
     assert "Give Feedback" not in done.stdout + done.stderr

@@ -10,82 +10,20 @@ test_event_bus.py.
 from __future__ import annotations
 
 import json
-import re
-import shutil
-import tempfile
-from collections.abc import AsyncIterator
-from contextlib import asynccontextmanager
 from pathlib import Path
-from typing import Any, TextIO, cast
 
-import anyio
 import pytest
-from mcp import Client
-from mcp.client.stdio import StdioServerParameters, stdio_client
 
-from tests.helpers import DATA, ROOT, server_command
-
-SCREENSHOTS = ROOT / "build" / "screenshots"
-INSTALL = (
-    "the browser tests need Chromium and Playwright: `apt-get install chromium` (as root; `make test` does it) "
-    "and `pip install -e '.[browser]'`"
-)
-
-
-def chromium() -> str:
-    """The system Chromium, or skip the test saying how to install it."""
-    path = shutil.which("chromium") or shutil.which("chromium-browser")
-    if path is None:
-        pytest.skip(f"no Chromium: {INSTALL}")
-    try:
-        import playwright.async_api  # noqa: F401
-    except ImportError:
-        pytest.skip(f"no Playwright: {INSTALL}")
-    return path
-
+from tests.browser import browser_page, chromium, live_server, screenshot_path, serving
+from tests.helpers import DATA
 
 # --- the live viewer in a browser ------------------------------------------------------------------
 
 
-@asynccontextmanager
-async def live_server(data_dir: Path) -> AsyncIterator[tuple[Client, str]]:
-    """A real `robocog-server --view 0` over stdio, and the address its viewer announced."""
-    command, *rest = server_command()
-    args = [*rest, "--profile", "eval", "--view", "0", "--data-dir", str(data_dir)]
-    with tempfile.NamedTemporaryFile("w+", suffix=".log") as log:
-        params = StdioServerParameters(command=command, args=args, env={"ANONYMIZED_TELEMETRY": "False"})
-        async with Client(stdio_client(params, errlog=cast(TextIO, log))) as client:
-            url = None
-            with anyio.fail_after(60):
-                while url is None:
-                    found = re.search(r"live viewer at (http://127\.0\.0\.1:\d+/)", Path(log.name).read_text())
-                    url = found.group(1) if found else None
-                    await anyio.sleep(0.05)
-            yield client, url
-
-
-@asynccontextmanager
-async def browser_page(executable: str) -> AsyncIterator[Any]:
-    from playwright.async_api import async_playwright
-
-    async with async_playwright() as pw:
-        browser = await pw.chromium.launch(executable_path=executable, headless=True, args=["--no-sandbox"])
-        try:
-            page = await browser.new_page(viewport={"width": 1280, "height": 800})
-            yield page
-        finally:
-            await browser.close()
-
-
-def screenshot_path(name: str) -> Path:
-    SCREENSHOTS.mkdir(parents=True, exist_ok=True)
-    return SCREENSHOTS / name
-
-
 @pytest.mark.anyio
 async def test_live_viewer_follows_a_client_over_stdio(tmp_path: Path) -> None:
-    executable = chromium()
-    async with live_server(tmp_path / "memory") as (client, url), browser_page(executable) as page:
+    chromium()  # skips, saying how to install it, where there is no browser
+    async with live_server(tmp_path / "memory") as (client, url), browser_page() as page:
         await page.goto(url)
         await page.wait_for_function("document.body.dataset.ready === 'true'", timeout=60_000)
         assert await page.title() == "robocog · live"
@@ -128,29 +66,6 @@ async def test_live_viewer_follows_a_client_over_stdio(tmp_path: Path) -> None:
 
 
 # --- the results viewer ----------------------------------------------------------------------------
-
-
-@asynccontextmanager
-async def serving(app: Any) -> AsyncIterator[str]:
-    """`app` served by uvicorn on a free loopback port, for the test's duration."""
-    import socket
-
-    import uvicorn
-
-    sock = socket.socket()
-    sock.bind(("127.0.0.1", 0))
-    sock.listen(16)
-    sock.setblocking(False)
-    server = uvicorn.Server(uvicorn.Config(app, log_config=None, log_level="warning", lifespan="off"))
-    async with anyio.create_task_group() as tg:
-        tg.start_soon(lambda: server.serve(sockets=[sock]))
-        while not server.started:
-            await anyio.sleep(0.02)
-        try:
-            yield f"http://127.0.0.1:{sock.getsockname()[1]}/"
-        finally:
-            server.should_exit = True
-    sock.close()
 
 
 def study_with_a_trace(folder: Path) -> Path:
@@ -214,11 +129,11 @@ def study_with_a_trace(folder: Path) -> Path:
 async def test_results_viewer_lists_the_attempts_and_opens_a_trace(tmp_path: Path) -> None:
     from robocog.agent.view.serve import ResultsViewer
 
-    executable = chromium()
+    chromium()  # skips, saying how to install it, where there is no browser
     viewer = ResultsViewer(study_with_a_trace(tmp_path))
     viewer.prepare()
     try:
-        async with serving(viewer.app()) as url, browser_page(executable) as page:
+        async with serving(viewer.app()) as url, browser_page() as page:
             await page.goto(url)
             await page.wait_for_function("document.body.dataset.ready === 'true'")
             rows = page.locator("#attempts tbody tr")

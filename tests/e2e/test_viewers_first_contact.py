@@ -12,73 +12,18 @@ from __future__ import annotations
 
 import io
 import json
-import re
-import shutil
-import tempfile
-from collections.abc import AsyncIterator
-from contextlib import asynccontextmanager
 from pathlib import Path
-from typing import Any, TextIO, cast
 
-import anyio
 import pytest
-from mcp import Client
-from mcp.client.stdio import StdioServerParameters, stdio_client
 
-from tests.helpers import DATA, ROOT, server_command
+from tests.browser import browser_page, live_server, screenshot_path, serving
+from tests.helpers import DATA
 
 pytestmark = pytest.mark.anyio
 
-SCREENSHOTS = ROOT / "build" / "screenshots"
-
-
-def chromium() -> str:
-    """Debian's Chromium, or skip saying how to install it."""
-    path = shutil.which("chromium") or shutil.which("chromium-browser")
-    if path is None:
-        pytest.skip("no Chromium: apt-get install -y chromium")
-    pytest.importorskip("playwright.async_api")
-    return path
-
 
 def shot(name: str) -> str:
-    SCREENSHOTS.mkdir(parents=True, exist_ok=True)
-    return str(SCREENSHOTS / f"first-contact-{name}.png")
-
-
-@asynccontextmanager
-async def browser_page(width: int = 1280, height: int = 800) -> AsyncIterator[Any]:
-    from playwright.async_api import async_playwright
-
-    async with async_playwright() as pw:
-        browser = await pw.chromium.launch(executable_path=chromium(), headless=True, args=["--no-sandbox"])
-        try:
-            yield await browser.new_page(viewport={"width": width, "height": height})
-        finally:
-            await browser.close()
-
-
-@asynccontextmanager
-async def serving(app: Any) -> AsyncIterator[str]:
-    """`app` on a free loopback port for the test's duration."""
-    import socket
-
-    import uvicorn
-
-    sock = socket.socket()
-    sock.bind(("127.0.0.1", 0))
-    sock.listen(16)
-    sock.setblocking(False)
-    server = uvicorn.Server(uvicorn.Config(app, log_config=None, log_level="warning", lifespan="off"))
-    async with anyio.create_task_group() as tg:
-        tg.start_soon(lambda: server.serve(sockets=[sock]))
-        while not server.started:
-            await anyio.sleep(0.02)
-        try:
-            yield f"http://127.0.0.1:{sock.getsockname()[1]}/"
-        finally:
-            server.should_exit = True
-    sock.close()
+    return str(screenshot_path(f"first-contact-{name}.png"))
 
 
 # --- the results viewer ---------------------------------------------------------------------------------
@@ -206,25 +151,6 @@ async def test_results_viewer_fits_a_suite_study_and_filters_by_family(tmp_path:
 
 
 # --- the live viewer ------------------------------------------------------------------------------------
-
-
-@asynccontextmanager
-async def live_server(data_dir: Path) -> AsyncIterator[tuple[Client, str]]:
-    """A real `robocog-server --profile eval --view 0` over stdio, and its viewer's address."""
-    command, *rest = server_command()
-    args = [*rest, "--profile", "eval", "--view", "0", "--data-dir", str(data_dir)]
-    with tempfile.NamedTemporaryFile("w+", suffix=".log") as log:
-        params = StdioServerParameters(command=command, args=args, env={"ANONYMIZED_TELEMETRY": "False"})
-        async with Client(stdio_client(params, errlog=cast(TextIO, log))) as client:
-            url = None
-            with anyio.fail_after(90):
-                while url is None:
-                    found = re.search(r"live viewer at (http://127\.0\.0\.1:\d+/)", Path(log.name).read_text())
-                    url = found.group(1) if found else None
-                    await anyio.sleep(0.05)
-            yield client, url
-        text = Path(log.name).read_text()
-        assert "pybullet build time" not in text and "argv[0]=" not in text
 
 
 async def test_live_viewer_counts_the_agents_calls_labels_locations_and_shows_the_tv(tmp_path: Path) -> None:
