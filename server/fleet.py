@@ -5,7 +5,7 @@ same world, and the first that acts holds it (the lease, `ownership.py`). A flee
 (`robocog-server --robots N`) gives each driver its own robot instead (its world, scratchpad,
 episode and memory namespace) so that a harness keeps dozens of episodes in flight against one
 process. A driver is what `ownership.Driver` says it is: an HTTP session, a connection, or a
-client that names itself; its robot goes back to the pool when the driver goes (its connection
+sessionless client's server-issued driver id; its robot goes back to the pool when the driver goes (its connection
 closes, or it is silent for `idle_s`), and is made as good as new (`RobotSession.recycle`) before
 the next driver gets it.
 
@@ -30,7 +30,7 @@ import anyio.to_thread
 from mcp.server.mcpserver.exceptions import ToolError
 
 from robocog.server.config import DEFAULT_SESSION_IDLE_S, SessionConfig
-from robocog.server.ownership import Driver, RobotLease
+from robocog.server.ownership import UNCONFIRMED_IDLE_S, Driver, RobotLease
 
 if TYPE_CHECKING:
     from robocog.server.memory.episodic import EpisodicMemory
@@ -80,6 +80,8 @@ class Robot:
     #: Whether a driver has had it (recycle it before the next one).
     used: bool = False
     last_call: float = 0.0
+    #: Whether its sessionless driver has sent its issued id back (else it idles out sooner).
+    confirmed: bool = True
 
     async def run(self, fn: Callable[[RobotSession], T], limiter: anyio.CapacityLimiter | None = None) -> T:
         """Run `fn(session)` on a worker thread, one call at a time on this robot, to completion
@@ -158,6 +160,7 @@ class Fleet:
             return first
         robot = self._bound.get(driver.key)
         if robot is not None:
+            robot.confirmed = robot.confirmed or not driver.issued_now
             return robot
         async with self._assigning:
             robot = self._bound.get(driver.key)
@@ -184,6 +187,7 @@ class Fleet:
                     raise
             robot.used = True
             robot.driver = driver
+            robot.confirmed = not driver.issued_now
             robot.last_call = self._clock()
             self._bound[driver.key] = robot
             if driver.connection is not None:
@@ -201,12 +205,13 @@ class Fleet:
             logger.info("robot %d is free", robot.number)
 
     def _release_idle(self) -> None:
-        """Free the robots of drivers without a connection (they name themselves on each call) that
-        have been silent for `idle_s`."""
+        """Free the robots of drivers without a connection (they send their issued id on each call)
+        that have been silent for `idle_s`, or `UNCONFIRMED_IDLE_S` if they never sent it back."""
         now = self._clock()
         for key, robot in list(self._bound.items()):
             sessionless = robot.driver is not None and robot.driver.connection is None
-            if sessionless and now - robot.last_call > self.idle_s and not robot.lock.locked():
+            limit = self.idle_s if robot.confirmed else min(self.idle_s, UNCONFIRMED_IDLE_S)
+            if sessionless and now - robot.last_call > limit and not robot.lock.locked():
                 self.release(key)
 
     def in_use(self) -> int:

@@ -5,10 +5,11 @@ router starts P fleet processes on loopback ports, each with its share of the N 
 on the public address itself: a new MCP session (an `initialize` without a session id) goes to the
 process with the fewest sessions for its robots, and every later request of that session (its
 `Mcp-Session-Id`) to the same process, streamed through both ways (SSE included). A client without
-sessions (MCP 2026-07-28) goes to the process its `_meta["robocog/driver"]` name hashes to, so it
-keeps its robot too. The router never looks inside a session: the bearer token, Host and Origin
-are checked by the fleet processes, which get the same token (in their environment) and accept the
-public address's names.
+sessions (MCP 2026-07-28) goes to the least loaded process for its first call, and then to the
+process that issued its driver id (`_meta["robocog/driver"]` names it), so it keeps its robot too;
+the processes share the secret that signs the ids. The router never looks inside a session: the
+bearer token, Host and Origin are checked by the fleet processes, which get the same token (in
+their environment) and accept the public address's names.
 
 The robots of all processes share one memory, as the robots of one process do: unless
 `--memory-url` names a Chroma server, the router starts one (`chroma run`, shipped with chromadb)
@@ -26,6 +27,7 @@ import hmac
 import json
 import logging
 import os
+import secrets
 import subprocess
 import sys
 import time
@@ -34,7 +36,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from robocog.server.config import DEFAULT_SESSION_IDLE_S
+from robocog.server.config import DEFAULT_SESSION_IDLE_S, DRIVER_SECRET_ENV
 from robocog.shared.errors import ConfigError
 from robocog.shared.process import PARENT_ENV, die_with_parent, free_port, wait_listening
 from robocog.shared.protocol import DRIVER_META_KEY
@@ -130,6 +132,9 @@ class Router:
         alive = [u for u in self.upstreams if u.proc is None or u.proc.poll() is None] or self.upstreams
         driver = _driver_name(body)
         if driver is not None:
+            origin = driver.split(".", 1)[0]  # an issued id names its process (server/ownership.py)
+            if origin.isdigit() and int(origin) < len(self.upstreams):
+                return self.upstreams[int(origin)]
             digest = hashlib.sha256(driver.encode()).digest()
             return alive[int.from_bytes(digest[:4], "big") % len(alive)]
         return min(alive, key=lambda u: (u.load(), u.index))
@@ -311,6 +316,7 @@ class Fleet:
         self.memory_url = memory_url
         self.session_idle_s = session_idle_s
         self.chroma: subprocess.Popen[bytes] | None = None
+        self.driver_secret = secrets.token_hex(32)
 
     def __enter__(self) -> Router:
         try:
@@ -326,6 +332,7 @@ class Fleet:
     def start(self) -> None:
         env = {**os.environ, "ANONYMIZED_TELEMETRY": "False"}
         env.pop("ROBOCOG_AUTH_TOKEN", None)
+        env[DRIVER_SECRET_ENV] = self.driver_secret  # every process (and a restarted one) checks the same ids
         if self.auth_token is not None:
             env["ROBOCOG_AUTH_TOKEN"] = self.auth_token  # not on the command line, where `ps` shows it
         memory_url = self.memory_url or self._start_chroma(env)
