@@ -239,11 +239,11 @@ def register_tool(mcp: MCPServer[AppState], tool: Tool[Any], access: Access) -> 
                 robot.lease.claim(driver)
             except RobotBusy as exc:
                 raise ToolError(str(exc)) from None
-        caller = Caller(progress=_progress(ctx), model=_model_label(ctx))
+        caller = Caller(progress=_progress(ctx), model=_model_label(ctx), counts=counts)
         records: list[LogEntry] = []
         try:
             with collecting(records.append):
-                result = await state.run_on(robot, lambda s: s.invoke(tool, arguments, caller, count=counts))
+                result = await state.run_on(robot, lambda session: session.invoke(tool, arguments, caller))
         finally:
             await state.clients.send(ctx.request_context, records)
         if tool.changes_world and getattr(result, "status", None) != "failure":

@@ -150,14 +150,12 @@ class RobotSession:
         """Run one tool with `arguments` (see `invoke`)."""
         return self.invoke(tool, arguments)
 
-    def invoke(
-        self, tool: Tool[R], arguments: Mapping[str, Any], caller: Caller | None = None, *, count: bool = True
-    ) -> R:
+    def invoke(self, tool: Tool[R], arguments: Mapping[str, Any], caller: Caller | None = None) -> R:
         """Run one tool for `caller` (a progress sink, the model's label); a robot tool counts as one
-        of the episode's calls (unless not `count`: a read-only call of a client watching the driver's
-        robot), and the first after end_task begins a new episode, unless it is the same end_task
-        again (a retry of a call whose answer was lost: it answers for the episode that ended)."""
-        if tool.counts_as_episode_call and count:
+        of the episode's calls (unless the caller does not: a client watching the driver's robot),
+        and the first after end_task begins a new episode, unless it is the same end_task again (a
+        retry of a call whose answer was lost: it answers for the episode that ended)."""
+        if tool.counts_as_episode_call and (caller is None or caller.counts):
             retry = tool.ends_episode and self.episode.report == dict(arguments)
             if self.episode.ended and not retry:
                 self.start_episode()
