@@ -53,7 +53,7 @@ from robocog.server.clients import (
 from robocog.server.config import AccessConfig, SessionConfig
 from robocog.server.consent import ConsentGate
 from robocog.server.events import EventBus
-from robocog.server.fleet import Fleet, Robot
+from robocog.server.fleet import DEFAULT_OPEN_NAMESPACES, Fleet, Robot
 from robocog.server.ownership import Driver, DriverIds, RobotBusy
 from robocog.server.resources import Current, register_completions, register_prompts, register_resources
 from robocog.server.tools import CONTROL_TOOLS, ROBOT_TOOLS
@@ -133,7 +133,7 @@ class AppState:
     async def run_on(self, robot: Robot, fn: Callable[[RobotSession], T]) -> T:
         """Run `fn(session)` on `robot`, serialised, to completion; a `ValueError` becomes a tool error."""
         try:
-            return await robot.run(fn, self.fleet.limiter)
+            return await self.fleet.call(robot, fn)
         except ValueError as exc:
             raise ToolError(str(exc)) from exc
 
@@ -373,6 +373,7 @@ def build_server(
     view: int | None = None,
     robots: int = 1,
     per_driver: bool | None = None,
+    open_namespaces: int = DEFAULT_OPEN_NAMESPACES,
 ) -> MCPServer[AppState]:
     """The robocog MCP server for `config`; the `eval` profile adds the harness controls; `access`
     sets the bearer token, the consent gate, the published tools and the lease; `view`, a port,
@@ -394,7 +395,13 @@ def build_server(
 
     @asynccontextmanager
     async def lifespan(_: MCPServer[AppState]) -> AsyncIterator[AppState]:
-        fleet = Fleet(config, capacity=robots, per_driver=per_driver, idle_s=access.lease_idle_s)
+        fleet = Fleet(
+            config,
+            capacity=robots,
+            per_driver=per_driver,
+            idle_s=access.lease_idle_s,
+            open_namespaces=open_namespaces,
+        )
         state = current.state = AppState(fleet)
 
         async def build() -> None:

@@ -2,15 +2,15 @@
 
 A server with one robot (the default) is what a desktop assistant talks to: every client sees the
 same world, and the first that acts holds it (the lease, `ownership.py`). A fleet
-(`robocog-server --robots N`) gives each driver its own robot instead (its world, scratchpad,
-episode and memory namespace) so that a harness keeps dozens of episodes in flight against one
-process. A driver is what `ownership.Driver` says it is: an HTTP session, a connection, or a
-sessionless client's server-issued driver id; its robot goes back to the pool when the driver goes (its connection
-closes, or it is silent for `idle_s`), and is made as good as new (`RobotSession.recycle`) before
-the next driver gets it.
+(`robocog-server --robots N`) gives each driver its own robot instead (its world, scratchpad and
+episode; memory is by namespace, shared: the server's unless a harness picks one) so that a harness
+keeps dozens of episodes in flight against one process. A driver is what `ownership.Driver` says
+it is: an HTTP session, a connection, or a sessionless client's server-issued driver id; its robot
+goes back to the pool when the driver goes (its connection closes, or it is silent for `idle_s`),
+and is made as good as new (`RobotSession.recycle`) before the next driver gets it.
 
 The robots share what is heavy and shareable: the embedding model (one per process already), and
-one Chroma client and collection handle per memory namespace (`Memories`). Each robot is its own
+one Chroma client and collection handle per memory namespace in use (`Memories`, bounded). Each robot is its own
 PyBullet client (about 37 MB) and its calls are serialised by its own lock; different robots' calls
 run on worker threads side by side (PyBullet holds the GIL while it steps, so one process uses about
 one core: a machine's cores are used by a few fleet processes).
@@ -40,14 +40,27 @@ T = TypeVar("T")
 logger = logging.getLogger("robocog.server.fleet")
 
 
-class Memories:
-    """One episodic memory per namespace, opened on first use and shared by every robot of the
-    process (one Chroma client; the embedding model is per process anyway)."""
+#: Memory namespaces a fleet process keeps open at once (`--memory-namespaces`): past it, the
+#: process closes them all between calls and opens again only those used next.
+DEFAULT_OPEN_NAMESPACES = 32
 
-    def __init__(self, config: SessionConfig) -> None:
+
+class Memories:
+    """The episodic memory of each namespace in use, opened on first use and shared by every robot
+    of the process (one Chroma client; the embedding model is per process anyway).
+
+    Bounded: Chroma keeps every collection a client has touched loaded (about 2.7 MB each, and it
+    frees them only when its client stops), so past `cap` open namespaces `over_cap` says so and the
+    fleet calls `close_all` while no call runs (`Fleet.call`); a robot asks for its memory on each
+    use, so the next use opens it again."""
+
+    def __init__(self, config: SessionConfig, *, cap: int = DEFAULT_OPEN_NAMESPACES) -> None:
         self.config = config
+        self.cap = cap
         self._open: dict[str, EpisodicMemory] = {}
         self._lock = threading.Lock()
+        #: How often every namespace was closed to stay under the cap.
+        self.recycled = 0
 
     def __call__(self, namespace: str) -> EpisodicMemory:
         from robocog.server.memory.episodic import EpisodicMemory
@@ -59,11 +72,26 @@ class Memories:
                 self._open[namespace] = memory
             return memory
 
-    def close(self) -> None:
+    @property
+    def over_cap(self) -> bool:
+        return len(self._open) > self.cap
+
+    def open_namespaces(self) -> int:
+        return len(self._open)
+
+    def close_all(self) -> None:
+        """Close every namespace (call it while no robot uses one); Chroma's client stops with the
+        last of them, and returns what it held."""
+        from robocog.server.memory.episodic import release_heap
+
         with self._lock:
             for memory in self._open.values():
                 memory.close()
             self._open.clear()
+        release_heap()
+
+    def close(self) -> None:
+        self.close_all()
 
 
 @dataclass(eq=False)
@@ -110,6 +138,7 @@ class Fleet:
         per_driver: bool | None = None,
         idle_s: float = DEFAULT_SESSION_IDLE_S,
         clock: Callable[[], float] = time.monotonic,
+        open_namespaces: int = DEFAULT_OPEN_NAMESPACES,
     ) -> None:
         if capacity < 1:
             raise ValueError(f"a server has at least one robot, not {capacity}")
@@ -120,7 +149,12 @@ class Fleet:
         self.per_driver = capacity > 1 if per_driver is None else per_driver
         self.idle_s = idle_s
         self._clock = clock
-        self.memories = Memories(config)
+        self.memories = Memories(config, cap=open_namespaces)
+        #: Calls running or waiting for their robot, and the gate that holds new ones while the
+        #: memories are closed (`call`).
+        self._calls = 0
+        self._drained = anyio.Event()
+        self._gate: anyio.Event | None = None
         self.robots: list[Robot] = []
         self._free: list[Robot] = []
         self._bound: dict[Hashable, Robot] = {}
@@ -194,6 +228,36 @@ class Fleet:
                 driver.connection.exit_stack.callback(self.release, driver.key)
             logger.info("robot %d now driven by %s", robot.number, driver.label)
             return robot
+
+    async def call(self, robot: Robot, fn: Callable[[RobotSession], T]) -> T:
+        """Run `fn` on `robot` (see `Robot.run`); afterwards, if more memory namespaces are open than
+        the cap, hold new calls, let the running ones finish, and close them all."""
+        while self._gate is not None:
+            await self._gate.wait()
+        self._calls += 1
+        try:
+            return await robot.run(fn, self.limiter)
+        finally:
+            self._calls -= 1
+            if self._calls == 0:
+                self._drained.set()
+            if self.memories.over_cap and self._gate is None:
+                await self._close_memories()
+
+    async def _close_memories(self) -> None:
+        gate = self._gate = anyio.Event()
+        try:
+            with anyio.CancelScope(shield=True):
+                while self._calls:
+                    self._drained = anyio.Event()
+                    await self._drained.wait()
+                opened = self.memories.open_namespaces()
+                await anyio.to_thread.run_sync(self.memories.close_all, limiter=self.limiter)
+                self.memories.recycled += 1
+                logger.info("closed %d memory namespaces (more than %d were open)", opened, self.memories.cap)
+        finally:
+            self._gate = None
+            gate.set()
 
     def release(self, key: Hashable) -> None:
         """The driver `key` has gone: its robot is free again (recycled before its next driver)."""

@@ -94,12 +94,11 @@ class RobotSession:
     @property
     def memory(self) -> EpisodicMemory:
         """The episodic memory, opened on first use (a session that never remembers needs no database)."""
+        if self._memories is not None:  # a fleet's: asked for each time (the fleet may have closed it since)
+            return self._memories(self._namespace)
         if self._memory is None:
             config = self.config
-            if self._memories is not None:
-                self._memory = self._memories(self._namespace)
-            else:
-                self._memory = EpisodicMemory(config.data_dir, url=config.memory_url, namespace=self._namespace)
+            self._memory = EpisodicMemory(config.data_dir, url=config.memory_url, namespace=self._namespace)
             where = f"the Chroma server at {config.memory_url}" if config.memory_url else "embedded ChromaDB"
             logger.info("episodic memory: %s, namespace %r", where, self._namespace)
         return self._memory
@@ -118,7 +117,10 @@ class RobotSession:
         if namespace == self._namespace:
             return
         if self._memory is not None and self._memories is None:
-            self._memory.close()
+            from robocog.server.memory.episodic import release_heap
+
+            self._memory.close()  # Chroma's client stops with it and returns what the namespace held
+            release_heap()
         self._memory = None
         self._namespace = namespace
 

@@ -12,6 +12,7 @@ from it, and writing it again replaces it: one episode, one record, however ofte
 
 from __future__ import annotations
 
+import contextlib
 import os
 import threading
 import uuid
@@ -41,6 +42,19 @@ _WRITE_BATCH = 1024
 _STATUSES: tuple[Status, ...] = ("success", "failure")
 #: Namespace of the record ids derived from episode ids.
 _EPISODE_IDS = uuid.UUID("4f0c3c56-2f55-4d0e-9a53-6f1f4b1f7a11")
+
+
+def release_heap() -> None:
+    """Give the C heap's free memory back to the system (glibc's malloc_trim): after Chroma's client
+    stops, what its collections held is otherwise kept by the allocator; a no-op elsewhere."""
+    import ctypes
+    import ctypes.util
+
+    name = ctypes.util.find_library("c")
+    if name is None:
+        return
+    with contextlib.suppress(OSError, AttributeError):
+        ctypes.CDLL(name).malloc_trim(0)
 
 
 def record_id(episode: str | None) -> str:

@@ -1,0 +1,185 @@
+"""Bounded resources: a fleet that serves 200 memory namespaces keeps its memory bounded (it closes
+them past `--memory-namespaces` and opens again those used next, their records intact), and the
+namespace rule holds as the README says it once: robots share the server's namespace unless
+`reset_world(memory_namespace=...)` gives them another. A real HTTP server process."""
+
+from __future__ import annotations
+
+import socket
+import subprocess
+import time
+from collections.abc import AsyncIterator, Iterator
+from contextlib import asynccontextmanager, contextmanager
+from pathlib import Path
+from typing import Any
+
+import pytest
+from mcp import Client
+
+from tests.helpers import free_port, server_command, server_env
+
+pytestmark = pytest.mark.anyio
+
+NAMESPACES = 200
+WARM_UP = 40
+OPEN = 8
+
+
+@contextmanager
+def fleet(tmp: Path, *args: str) -> Iterator[tuple[str, subprocess.Popen[bytes]]]:
+    port = free_port()
+    log = tmp / "server.log"
+    with log.open("wb") as out:
+        proc = subprocess.Popen(
+            [*server_command(), "--transport", "http", "--port", str(port), "--profile", "eval", *args],
+            stdout=out,
+            stderr=subprocess.STDOUT,
+            env=server_env(),
+        )
+        try:
+            deadline = time.monotonic() + 60
+            while True:
+                assert proc.poll() is None, log.read_text(errors="replace")
+                assert time.monotonic() < deadline, "the server did not listen"
+                with socket.socket() as s:
+                    if s.connect_ex(("127.0.0.1", port)) == 0:
+                        break
+                time.sleep(0.1)
+            yield f"http://127.0.0.1:{port}/mcp", proc
+        finally:
+            proc.terminate()
+            proc.wait(timeout=30)
+
+
+def rss_mb(pid: int) -> float:
+    return int(Path(f"/proc/{pid}/statm").read_text().split()[1]) * 4096 / 1e6
+
+
+@asynccontextmanager
+async def session(url: str) -> AsyncIterator[Client]:
+    from mcp.client.streamable_http import streamable_http_client
+
+    async with Client(streamable_http_client(url), mode="legacy") as client:
+        yield client
+
+
+async def call(client: Client, tool: str, **arguments: Any) -> dict[str, Any]:
+    result = await client.call_tool(tool, arguments)
+    assert not result.is_error, result.content
+    assert isinstance(result.structured_content, dict)
+    return result.structured_content
+
+
+def own_rss_mb() -> float:
+    return int(Path("/proc/self/statm").read_text().split()[1]) * 4096 / 1e6
+
+
+async def test_200_namespaces_keep_a_fleets_memory_bounded(tmp_path: Path) -> None:
+    """Two robots of a real fleet (PyBullet, embedded Chroma) write to 200 namespaces, side by side,
+    through the fleet's calls; past `OPEN` open namespaces the fleet closes them between calls."""
+    import anyio
+
+    from robocog.server.config import SessionConfig
+    from robocog.server.fleet import Fleet
+    from robocog.server.ownership import Driver
+
+    fleet = Fleet(SessionConfig(data_dir=tmp_path / "memory"), capacity=2, open_namespaces=OPEN)
+    try:
+        await anyio.to_thread.run_sync(fleet.build)
+        robots = [await fleet.robot_for(Driver(("driver", n), n, None)) for n in ("one", "two")]
+
+        def write(namespace: str) -> Any:
+            def run(session: Any) -> None:
+                session.use_namespace(namespace)
+                session.memory.add(f"task of {namespace}", "success", f"did {namespace}")
+
+            return run
+
+        async def units(robot: Any, start: int, stop: int) -> None:
+            for i in range(start, stop, 2):
+                await fleet.call(robot, write(f"unit-{i}"))
+
+        async def both(start: int, stop: int) -> None:  # both robots at once: closing waits for their calls
+            async with anyio.create_task_group() as tg:
+                tg.start_soon(units, robots[0], start, stop)
+                tg.start_soon(units, robots[1], start + 1, stop)
+
+        await both(0, WARM_UP)  # the embedding model, Chroma, the worker threads, the first closings
+        before = own_rss_mb()
+        await both(WARM_UP, NAMESPACES)
+        grown = own_rss_mb() - before
+        # unbounded, 160 namespaces cost about 2.7 MB each (~430 MB); bounded, a few closings' noise
+        assert grown < 100, f"RSS grew {grown:.0f} MB over {NAMESPACES - WARM_UP} namespaces"
+        assert fleet.memories.open_namespaces() <= OPEN + 2 and fleet.memories.recycled >= 20
+
+        def find(session: Any) -> list[str]:  # a namespace closed long ago opens again with its record
+            session.use_namespace("unit-4")
+            return [h.record.summary for h in session.memory.search("task of unit-4", k=1)]
+
+        assert await fleet.call(robots[1], find) == ["did unit-4"]
+    finally:
+        fleet.close()
+
+
+async def test_robots_share_the_servers_namespace_unless_told_otherwise(tmp_path: Path) -> None:
+    with fleet(tmp_path, "--robots", "2", "--data-dir", str(tmp_path / "memory")) as (url, _):
+        async with session(url) as a, session(url) as b:
+            await call(a, "end_task", status="failure", description="grasp the TV", summary="too heavy")
+            found = await call(b, "search_memory", query="grasp the TV")
+            assert [r["summary"] for r in found["results"]] == ["too heavy"], "one namespace: shared"
+            await call(b, "reset_world", memory_namespace="b-own")
+            assert (await call(b, "search_memory", query="grasp the TV"))["results"] == []
+            assert (await call(b, "clear_memory"))["removed"] == 0, "b's clear_memory clears only b's namespace"
+            assert len((await call(a, "search_memory", query="grasp the TV"))["results"]) == 1
+
+
+#: A client that takes a robot and then waits forever (until it is killed).
+HOLDER = """
+import sys, anyio
+from mcp import Client
+from mcp.client.streamable_http import streamable_http_client
+
+async def main():
+    async with Client(streamable_http_client(sys.argv[1]), mode="legacy") as client:
+        assert not (await client.call_tool("move_to", {"location": "Kitchen Door"})).is_error
+        print("holding", flush=True)
+        await anyio.sleep(3600)
+
+anyio.run(main)
+"""
+
+
+async def test_robots_of_clients_killed_mid_session_are_freed_promptly(tmp_path: Path) -> None:
+    import os
+    import signal
+    import sys
+
+    import anyio
+
+    with fleet(tmp_path, "--robots", "2", "--data-dir", str(tmp_path / "memory")) as (url, _):
+        holders = [
+            subprocess.Popen([sys.executable, "-c", HOLDER, url], stdout=subprocess.PIPE, env=server_env())
+            for _ in range(2)
+        ]
+        try:
+            for holder in holders:
+                assert holder.stdout is not None and holder.stdout.readline().strip() == b"holding"
+            async with session(url) as late:
+                refused = await late.call_tool("look_around", {})
+                assert refused.is_error and "all 2 robots" in str(refused.content)
+            for holder in holders:
+                os.kill(holder.pid, signal.SIGKILL)
+                holder.wait()
+            # both robots come back within seconds, not after --session-idle-s (600 s)
+            async with session(url) as a, session(url) as b:
+                for client in (a, b):
+                    with anyio.fail_after(60):
+                        while (result := await client.call_tool("look_around", {})).is_error:
+                            await anyio.sleep(0.5)
+                    assert isinstance(result.structured_content, dict)
+                    assert result.structured_content["location"] == "Front Door", "recycled"
+        finally:
+            for holder in holders:
+                if holder.poll() is None:
+                    holder.kill()
+                    holder.wait()
