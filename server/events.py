@@ -166,6 +166,27 @@ class EventBus:
                 yield event
                 after = event.seq
 
+    async def batches(
+        self, after: int, *, heartbeat_s: float | None = None, tick_s: float = 0.0
+    ) -> AsyncIterator[bytes]:
+        """Like `follow`, for a stream: the encoded events after `after` as one chunk per wake-up,
+        at most one chunk per `tick_s` (what a reader costs the event loop is a write per tick, not
+        per event, however fast the robot acts), and a keep-alive comment after `heartbeat_s`
+        without any."""
+        while not self.closed:
+            events = self.since(after)
+            if not events:
+                changed = self._changed
+                with anyio.move_on_after(heartbeat_s) as waiting:
+                    await changed.wait()
+                if waiting.cancelled_caught:
+                    yield b": keep-alive\n\n"
+                continue
+            after = events[-1].seq
+            yield b"".join(event.encoded for event in events)
+            if tick_s:
+                await anyio.sleep(tick_s)
+
     def close(self) -> None:
         self.closed = True
         self._changed.set()

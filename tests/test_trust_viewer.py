@@ -107,3 +107,25 @@ def test_a_reader_that_keeps_up_is_sent_only_its_new_events() -> None:
     assert bus.since(600) == [] and bus.since(50)[0].kind == "gap"
     event = bus.since(599)[0]
     assert event.encoded is event.encoded, "encoded once"
+
+
+async def test_a_reader_gets_what_happened_in_one_write_per_tick() -> None:
+    from robocog.server.events import EventBus
+
+    bus = EventBus()
+    chunks: list[bytes] = []
+
+    async def reader() -> None:
+        async for chunk in bus.batches(0, heartbeat_s=60, tick_s=0.2):
+            chunks.append(chunk)
+            if b"event: state" in chunk:
+                bus.close()
+
+    async with anyio.create_task_group() as tg:
+        tg.start_soon(reader)
+        bus.publish("call", {"tool": "move_to"})
+        await anyio.sleep(0.05)  # the reader wrote the call and waits for its tick
+        bus.publish("result", {"tool": "move_to"})
+        bus.publish("state", {"world": {}})
+    assert len(chunks) == 2, "the result and the state that came within one tick: one write"
+    assert chunks[1].count(b"event: ") == 2 and chunks[1] == b"".join(e.encoded for e in bus.since(1))

@@ -53,6 +53,8 @@ RECENT = 100
 HEARTBEAT_S = 10.0
 #: Event streams open at once; past it a reader gets 503 (they share the robot's event loop).
 MAX_READERS = 64
+#: A reader is sent what happened at most this often (seconds), all of it in one write.
+TICK_S = 0.25
 
 
 def scene_json(session: RobotSession) -> dict[str, Any]:
@@ -238,8 +240,8 @@ class Viewer:
 
         async def stream() -> Any:
             yield b"retry: 1000\n\n"
-            async for event in self.bus.follow(after, heartbeat_s=HEARTBEAT_S):
-                yield b": keep-alive\n\n" if event is None else event.encoded
+            async for chunk in self.bus.batches(after, heartbeat_s=HEARTBEAT_S, tick_s=TICK_S):
+                yield chunk
 
         viewer = self
 
