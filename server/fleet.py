@@ -43,38 +43,57 @@ logger = logging.getLogger("robocog.server.fleet")
 #: Memory namespaces a fleet process keeps open at once (`--memory-namespaces`): past it, the
 #: process closes them all between calls and opens again only those used next.
 DEFAULT_OPEN_NAMESPACES = 32
+#: Uses of the memory (a search, a write, a verdict) after which it is closed and opened again
+#: all the same: Chroma's client grows with every search after a write (about 200 KB each) and
+#: gives it back only when it stops.
+RECYCLE_USES = 200
 
 
 class Memories:
     """The episodic memory of each namespace in use, opened on first use and shared by every robot
     of the process (one Chroma client; the embedding model is per process anyway).
 
-    Bounded: Chroma keeps every collection a client has touched loaded (about 2.7 MB each, and it
-    frees them only when its client stops), so past `cap` open namespaces `over_cap` says so and the
-    fleet calls `close_all` while no call runs (`Fleet.call`); a robot asks for its memory on each
-    use, so the next use opens it again."""
+    Bounded: Chroma keeps every collection a client has touched loaded (about 2.7 MB each), and
+    grows with every search after a write (about 200 KB each), and frees it only when its client
+    stops; so past `cap` open namespaces, or `RECYCLE_USES` uses, `due` says so and the fleet calls
+    `close_all` while no call runs (`Fleet.call`); a robot asks for its memory on each use, so the
+    next use opens it again."""
 
     def __init__(self, config: SessionConfig, *, cap: int = DEFAULT_OPEN_NAMESPACES) -> None:
         self.config = config
         self.cap = cap
         self._open: dict[str, EpisodicMemory] = {}
         self._lock = threading.Lock()
-        #: How often every namespace was closed to stay under the cap.
+        #: How often every namespace was closed to stay bounded; uses since the last time.
         self.recycled = 0
+        self.uses = 0
+        self._announced: set[str] = set()
 
     def __call__(self, namespace: str) -> EpisodicMemory:
         from robocog.server.memory.episodic import EpisodicMemory
 
         with self._lock:  # robots open memories on worker threads
+            self.uses += 1
             memory = self._open.get(namespace)
             if memory is None:
                 memory = EpisodicMemory(self.config.data_dir, url=self.config.memory_url, namespace=namespace)
                 self._open[namespace] = memory
+                if namespace not in self._announced:  # once per namespace, not at every reopening
+                    if len(self._announced) > 1000:
+                        self._announced.clear()
+                    self._announced.add(namespace)
+                    where = (
+                        f"the Chroma server at {self.config.memory_url}"
+                        if self.config.memory_url
+                        else "embedded ChromaDB"
+                    )
+                    logger.info("episodic memory: %s, namespace %r", where, namespace)
             return memory
 
     @property
-    def over_cap(self) -> bool:
-        return len(self._open) > self.cap
+    def due(self) -> bool:
+        """Whether to close them all (more than `cap` open, or `RECYCLE_USES` uses since)."""
+        return len(self._open) > self.cap or (self.uses >= RECYCLE_USES and bool(self._open))
 
     def open_namespaces(self) -> int:
         return len(self._open)
@@ -88,6 +107,7 @@ class Memories:
             for memory in self._open.values():
                 memory.close()
             self._open.clear()
+            self.uses = 0
         release_heap()
 
     def close(self) -> None:
@@ -175,8 +195,7 @@ class Fleet:
         """Build one more robot (on a worker thread: it takes about 0.2 s) and keep it free."""
         from robocog.server.session import RobotSession
 
-        memories = None if self.shared else self.memories
-        session = RobotSession(self.config, memories=memories)
+        session = RobotSession(self.config, memories=self.memories)
         lease = RobotLease(idle_s=self.idle_s, clock=self._clock)
         robot = Robot(number=len(self.robots) + 1, session=session, lease=lease, clock=self._clock)
         self.robots.append(robot)
@@ -230,8 +249,8 @@ class Fleet:
             return robot
 
     async def call(self, robot: Robot, fn: Callable[[RobotSession], T]) -> T:
-        """Run `fn` on `robot` (see `Robot.run`); afterwards, if more memory namespaces are open than
-        the cap, hold new calls, let the running ones finish, and close them all."""
+        """Run `fn` on `robot` (see `Robot.run`); afterwards, if the memories are due to be closed
+        (`Memories.due`), hold new calls, let the running ones finish, and close them all."""
         while self._gate is not None:
             await self._gate.wait()
         self._calls += 1
@@ -241,7 +260,7 @@ class Fleet:
             self._calls -= 1
             if self._calls == 0:
                 self._drained.set()
-            if self.memories.over_cap and self._gate is None:
+            if self.memories.due and self._gate is None:
                 await self._close_memories()
 
     async def _close_memories(self) -> None:
@@ -254,7 +273,7 @@ class Fleet:
                 opened = self.memories.open_namespaces()
                 await anyio.to_thread.run_sync(self.memories.close_all, limiter=self.limiter)
                 self.memories.recycled += 1
-                logger.info("closed %d memory namespaces (more than %d were open)", opened, self.memories.cap)
+                logger.info("closed the memory (%d namespaces open) to keep it bounded", opened)
         finally:
             self._gate = None
             gate.set()

@@ -183,3 +183,30 @@ async def test_robots_of_clients_killed_mid_session_are_freed_promptly(tmp_path:
                 if holder.poll() is None:
                     holder.kill()
                     holder.wait()
+
+
+async def test_a_memory_used_again_and_again_is_closed_and_opened_again_intact(tmp_path: Path) -> None:
+    """Chroma grows with every search after a write until its client stops: the robot's memory is
+    closed every RECYCLE_USES uses (between calls), and what it holds is there after."""
+    import anyio
+
+    from robocog.server.config import SessionConfig
+    from robocog.server.fleet import RECYCLE_USES, Fleet
+
+    fleet = Fleet(SessionConfig(data_dir=tmp_path / "memory"))  # one robot for all, as a desktop server
+    try:
+        robot = await anyio.to_thread.run_sync(fleet.build)
+
+        def write_and_search(i: int) -> Any:
+            def run(session: Any) -> list[str]:
+                session.memory.add(f"task {i}", "success", f"did {i}")
+                return [h.record.summary for h in session.memory.search("task 0", k=1)]
+
+            return run
+
+        for i in range(RECYCLE_USES // 2 + 5):  # two uses a call
+            assert await fleet.call(robot, write_and_search(i)) == ["did 0"]
+        assert fleet.memories.recycled == 1
+        assert await fleet.call(robot, lambda s: s.memory.count()) == RECYCLE_USES // 2 + 5
+    finally:
+        fleet.close()
