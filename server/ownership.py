@@ -122,7 +122,7 @@ class Driver:
                 return cls(("named", named[:200]), f"{client} (driver {named[:40]!r})", None)
             return cls(("client", client), client, None)
         if named is not None:
-            if not ids.valid(named):
+            if not isinstance(named, str) or not ids.valid(named):
                 raise UnknownDriver(
                     f'_meta["{DRIVER_META_KEY}"] is not a driver id this server issued; leave it out of your '
                     "first call that needs a robot, and send back the id that call returns in its result's "
