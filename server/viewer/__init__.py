@@ -52,9 +52,9 @@ RECENT = 100
 #: Seconds between keep-alive comments on an idle event stream (a closed page is noticed then).
 HEARTBEAT_S = 10.0
 #: Event streams open at once; past it a reader gets 503 (they share the robot's event loop).
-MAX_READERS = 64
+MAX_READERS = 16
 #: A reader is sent what happened at most this often (seconds), all of it in one write.
-TICK_S = 0.25
+TICK_S = 0.5
 
 
 def scene_json(session: RobotSession) -> dict[str, Any]:
