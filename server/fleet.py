@@ -90,6 +90,16 @@ class Memories:
                     logger.info("episodic memory: %s, namespace %r", where, namespace)
             return memory
 
+    def drop(self, namespace: str) -> int:
+        """Delete `namespace` and its files (`EpisodicMemory.drop`: the bytes removed), and forget
+        its handle."""
+        memory = self(namespace)
+        with self._lock:
+            freed = memory.drop()
+            self._open.pop(namespace, None)
+            memory.close()
+        return freed
+
     @property
     def due(self) -> bool:
         """Whether to close them all (more than `cap` open, or `RECYCLE_USES` uses since)."""

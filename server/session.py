@@ -12,9 +12,9 @@ from __future__ import annotations
 import logging
 import time
 import uuid
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, TypeVar
+from typing import Any, Protocol, TypeVar
 
 from pydantic import BaseModel
 
@@ -30,8 +30,17 @@ from robocog.shared.suite import Instance, find_instance
 from robocog.shared.tasks import TaskSpec
 
 R = TypeVar("R", bound=BaseModel)
-#: Opens the episodic memory of a namespace (a fleet's robots share one per namespace: `server/fleet.py`).
-MemoryProvider = Callable[[str], EpisodicMemory]
+
+
+class MemoryProvider(Protocol):
+    """Opens the episodic memory of a namespace, and deletes one (a server's robots share one per
+    namespace: `server/fleet.py`, `Memories`)."""
+
+    def __call__(self, namespace: str) -> EpisodicMemory: ...
+
+    def drop(self, namespace: str) -> int: ...
+
+
 logger = logging.getLogger("robocog.server.session")
 
 
@@ -123,6 +132,24 @@ class RobotSession:
             release_heap()
         self._memory = None
         self._namespace = namespace
+
+    def drop_namespace(self) -> int:
+        """Delete this robot's memory namespace with its files on disk (a harness does, for the
+        namespace it made for a unit, when the unit ends; the bytes removed); the robot goes back
+        to the server's own."""
+        if self._namespace == self.config.namespace:
+            raise ValueError(
+                f"drop: {self._namespace!r} is the server's own memory namespace (--memory-namespace); only a "
+                "namespace given with reset_world(memory_namespace=...) can be dropped"
+            )
+        if self._memories is not None:
+            freed = self._memories.drop(self._namespace)
+        else:
+            freed = self.memory.drop()
+            self.memory.close()
+            self._memory = None
+        self._namespace = self.config.namespace
+        return freed
 
     def recycle(self) -> None:
         """Make this robot as good as new for its next driver (a fleet reuses robots): the world at

@@ -210,3 +210,31 @@ async def test_a_memory_used_again_and_again_is_closed_and_opened_again_intact(t
         assert await fleet.call(robot, lambda s: s.memory.count()) == RECYCLE_USES // 2 + 5
     finally:
         fleet.close()
+
+
+async def test_a_units_namespace_can_be_dropped_with_its_files_and_the_servers_cannot(tmp_path: Path) -> None:
+    from robocog.server.app import build_server
+    from robocog.server.config import SessionConfig
+
+    data = tmp_path / "memory"
+    server = build_server(SessionConfig(data_dir=data), profile="eval")
+
+    def index_dirs() -> set[str]:  # embedded Chroma keeps each collection's index in a directory of its own
+        return {p.name for p in data.iterdir() if p.is_dir()}
+
+    async with Client(server, mode="legacy") as client:
+        await call(client, "end_task", status="success", description="kept", summary="the server's own")
+        await call(client, "reset_world", memory_namespace="unit-7")
+        for i in range(3):
+            await call(client, "end_task", status="success", description=f"unit task {i}", summary="s")
+        await call(client, "search_memory", query="unit task")
+        before = index_dirs()
+        dropped = await call(client, "clear_memory", drop=True)
+        assert dropped["removed"] == 3 and dropped["freed_bytes"] > 0
+        assert len(index_dirs()) < len(before), "the namespace's files are gone"
+        found = await call(client, "search_memory", query="kept")
+        assert [r["summary"] for r in found["results"]] == ["the server's own"], "back in the server's namespace"
+        refused = await client.call_tool("clear_memory", {"drop": True})
+        assert refused.is_error and "is the server's own memory namespace" in str(refused.content)
+        await call(client, "reset_world", memory_namespace="unit-7")
+        assert (await call(client, "search_memory", query="unit task"))["results"] == [], "made anew, empty"

@@ -127,6 +127,7 @@ class EpisodicMemory:
         os.environ["ANONYMIZED_TELEMETRY"] = "False"
         settings = Settings(anonymized_telemetry=False)
         self._client: ClientAPI
+        self._url = url
         if url is not None:
             host, port, ssl = parse_chroma_url(url)
             try:
@@ -223,6 +224,28 @@ class EpisodicMemory:
         step = max(1, min(self._client.get_max_batch_size(), 5000))
         for start in range(0, len(ids), step):
             self._collection.delete(ids=ids[start : start + step])
+
+    def drop(self) -> int:
+        """Delete the namespace itself: its collection and, embedded, its index files on disk (the
+        memory cannot be used after; opening the namespace again makes it anew, empty). Returns the
+        bytes of files removed (0 on a Chroma server). Chroma's own `delete_collection` leaves the
+        index directories behind, so they are found in its catalogue first and removed after."""
+        import shutil
+        import sqlite3
+
+        directories: list[Path] = []
+        if self._url is None:
+            root = Path(self.location)
+            with contextlib.closing(sqlite3.connect(root / "chroma.sqlite3")) as catalogue:
+                rows = catalogue.execute(
+                    "SELECT id FROM segments WHERE collection = ?", (str(self._collection.id),)
+                ).fetchall()
+            directories = [root / str(row[0]) for row in rows if (root / str(row[0])).is_dir()]
+        size = sum(f.stat().st_size for d in directories for f in d.rglob("*") if f.is_file())
+        self._client.delete_collection(self._collection.name)
+        for directory in directories:
+            shutil.rmtree(directory, ignore_errors=True)
+        return size
 
     # -- reading ------------------------------------------------------------------------------
 
