@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -110,3 +111,18 @@ def test_the_contract_publishes_the_rule_and_the_checker_sees_it_go() -> None:
     without = live | {"capabilities": [c for c in live["capabilities"] if not c.startswith("experimental")]}
     dropped = compare_contracts(live, without)
     assert {c.kind for c in dropped if c.where == "capability experimental.robocog/driver.issued"} == {"breaking"}
+
+
+async def test_the_second_client_drives_once_the_first_lets_go(tmp_path: Path) -> None:
+    import anyio
+
+    with http_server(tmp_path / "server.log", "--session-idle-s", "2", "--data-dir", str(tmp_path / "m")) as url:
+        async with Client(url) as one, Client(url) as two:
+            a, b = Driver(one), Driver(two)
+            await a.ok("move_to", location="Hallway Area Door")
+            await a.ok("move_to", location="Kitchen Door")  # a sent its id back: its lease runs 2 s
+            assert (await b.call("move_to", location="Living Room Door")).is_error
+            await anyio.sleep(2.5)  # a is silent past --session-idle-s: it has let go
+            assert (await b.ok("move_to", location="Hallway Area Door"))["location"] == "Hallway Area Door"
+            refused = await a.call("move_to", location="Kitchen Door")
+            assert refused.is_error and BUSY in text(refused), "now a is the one refused"
