@@ -8,7 +8,7 @@ export LITELLM_LOCAL_MODEL_COST_MAP := True
 export ANONYMIZED_TELEMETRY := False
 export PYTHONDONTWRITEBYTECODE := 1
 
-.PHONY: help demo world-demo test chromium bench fuzz lint format server inspector conformance docs bundle bundle-check clean
+.PHONY: help demo world-demo test chromium bench soak fuzz lint format server inspector conformance docs bundle bundle-check clean
 
 help: ## Show this help
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-12s %s\n", $$1, $$2}'
@@ -66,6 +66,11 @@ chromium:
 
 bench: $(STAMP) chromium ## Print the performance figures as JSON
 	$(BIN)/python tests/bench/run.py
+
+SOAK_EPISODES ?= 1000
+SOAK_MINUTES ?= 30
+soak: $(STAMP) ## T1 episodes with memory on both protocol generations; RSS per 100 episodes (SOAK_MINUTES bounds it)
+	$(BIN)/python tests/bench/soak.py --episodes $(SOAK_EPISODES) --minutes $(SOAK_MINUTES) $(SOAK_ARGS)
 
 fuzz: $(STAMP) ## Attack the server: a long Hypothesis run, then 25,000 hostile calls and 32 HTTP clients (JSON)
 	ROBOCOG_FUZZ=long $(BIN)/python -m pytest -q tests/integration/test_fuzz.py

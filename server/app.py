@@ -29,7 +29,7 @@ import anyio.to_thread
 from mcp.server.context import ServerRequestContext
 from mcp.server.lowlevel.helper_types import ReadResourceContents
 from mcp.server.mcpserver import Context, MCPServer
-from mcp.server.mcpserver.exceptions import ToolError
+from mcp.server.mcpserver.exceptions import ResourceError, ToolError, UnexpectedResourceError
 from mcp_types import (
     CallToolResult,
     EmptyResult,
@@ -53,14 +53,14 @@ from robocog.server.clients import (
 from robocog.server.config import AccessConfig, SessionConfig
 from robocog.server.consent import ConsentGate
 from robocog.server.events import EventBus
-from robocog.server.fleet import Fleet, Robot
-from robocog.server.ownership import Driver, RobotBusy
+from robocog.server.fleet import DEFAULT_OPEN_NAMESPACES, Fleet, Robot
+from robocog.server.ownership import Driver, DriverIds, RobotBusy
 from robocog.server.resources import Current, register_completions, register_prompts, register_resources
 from robocog.server.tools import CONTROL_TOOLS, ROBOT_TOOLS
 from robocog.server.tools.base import Caller, ProgressFn, Tool
 from robocog.shared import __version__
 from robocog.shared.errors import ConfigError
-from robocog.shared.protocol import CONTRACT_VERSION, MODEL_META_KEY
+from robocog.shared.protocol import CONTRACT_VERSION, DRIVER_META_KEY, MODEL_META_KEY
 from robocog.shared.results import WithImage
 
 if TYPE_CHECKING:
@@ -94,6 +94,8 @@ class AppState:
     failure: str | None = None
     #: The live viewer's events (`robocog-server --view`); None without a viewer.
     events: EventBus | None = None
+    #: Issues and checks the driver ids of sessionless clients (`ownership.py`).
+    ids: DriverIds = field(default_factory=lambda: DriverIds(origin=_fleet_origin()))
 
     @property
     def session(self) -> RobotSession:
@@ -103,14 +105,23 @@ class AppState:
             raise ToolError(f"the robot is not available: {self.failure or 'still starting'}")
         return first.session
 
-    async def robot(self, ctx: ServerRequestContext[Any, Any] | None = None) -> Robot:
-        """The robot of the client making request `ctx` (default: the request being answered; with
-        none, the first robot)."""
+    async def robot(self, ctx: ServerRequestContext[Any, Any] | None = None, driver: Driver | None = None) -> Robot:
+        """The robot of `driver`, or of the client making request `ctx` (default: the request being
+        answered; with none, the first robot). On a fleet, a sessionless client that sends no driver
+        id has no robot to read (a tool call gives it one, and its id)."""
         await self.ready.wait()
         if self.failure is not None:
             raise ToolError(f"the robot is not available: {self.failure}")
         ctx = ctx or _REQUEST.get()
-        return await self.fleet.robot_for(None if ctx is None or self.fleet.shared else Driver.of(ctx))
+        if ctx is None or self.fleet.shared:
+            return await self.fleet.robot_for(None)
+        driver = driver or Driver.of(ctx, self.ids, issue=False)
+        if driver is None:
+            raise ToolError(
+                "this server is a fleet: each driver reads its own robot. A client without a session sends, in "
+                f'_meta["{DRIVER_META_KEY}"], the driver id its first tool call returned in its result\'s _meta'
+            )
+        return await self.fleet.robot_for(driver)
 
     async def run(self, fn: Callable[[RobotSession], T], ctx: ServerRequestContext[Any, Any] | None = None) -> T:
         """Run `fn(session)` on the caller's robot (see `robot`), serialised, to completion.
@@ -122,9 +133,18 @@ class AppState:
     async def run_on(self, robot: Robot, fn: Callable[[RobotSession], T]) -> T:
         """Run `fn(session)` on `robot`, serialised, to completion; a `ValueError` becomes a tool error."""
         try:
-            return await robot.run(fn, self.fleet.limiter)
+            return await self.fleet.call(robot, fn)
         except ValueError as exc:
             raise ToolError(str(exc)) from exc
+
+
+def _fleet_origin() -> str:
+    """Which of a router's fleet processes this is (`ROBOCOG_FLEET_PROCESS` "i/n"), as the driver ids
+    it issues name it (the router sends an id's calls to the process that issued it); "0" alone."""
+    import os
+
+    number = os.environ.get("ROBOCOG_FLEET_PROCESS", "1/1").split("/", 1)[0]
+    return str(int(number) - 1) if number.isdigit() and int(number) > 0 else "0"
 
 
 def _tool_result(result: BaseModel) -> CallToolResult:
@@ -192,13 +212,34 @@ def register_tool(mcp: MCPServer[AppState], tool: Tool[Any], access: Access) -> 
         state = ctx.request_context.lifespan_context
         if gate is not None:
             gate.check(ctx, tool, arguments.pop("consent"))
-        robot = await state.robot(ctx.request_context)
+        # A call that needs a robot of its own (one that acts, or any on a fleet) gets a sessionless
+        # client a driver id when it sends none; the id goes back in the result's _meta.
+        driver = Driver.of(ctx.request_context, state.ids, issue=exclusive or not state.fleet.shared)
+        try:
+            result = await run(ctx, state, driver, arguments)
+        except ToolError as exc:
+            if driver is None or not driver.issued_now:
+                raise
+            failed = CallToolResult(content=[TextContent(type="text", text=str(exc))], is_error=True)
+            failed.meta = {DRIVER_META_KEY: driver.driver_id}
+            return failed
+        if driver is not None and driver.issued_now:
+            result.meta = {**(result.meta or {}), DRIVER_META_KEY: driver.driver_id}
+        return result
+
+    async def run(
+        ctx: Context[AppState], state: AppState, driver: Driver | None, arguments: dict[str, Any]
+    ) -> CallToolResult:
+        robot = await state.robot(ctx.request_context, driver)
+        # A watcher's read-only calls on a shared robot are not the driver's episode's calls.
+        counts = not state.fleet.shared or robot.lease.holds(driver)
         if exclusive:
+            assert driver is not None
             try:
-                robot.lease.claim(Driver.of(ctx.request_context))
+                robot.lease.claim(driver)
             except RobotBusy as exc:
                 raise ToolError(str(exc)) from None
-        caller = Caller(progress=_progress(ctx), model=_model_label(ctx))
+        caller = Caller(progress=_progress(ctx), model=_model_label(ctx), counts=counts)
         records: list[LogEntry] = []
         try:
             with collecting(records.append):
@@ -250,6 +291,10 @@ class RobocogServer(MCPServer[AppState]):
         token = _REQUEST.set(None if context is None else context.request_context)
         try:
             return await super().read_resource(uri, context)
+        except UnexpectedResourceError as exc:
+            if isinstance(exc.__cause__, ToolError):  # ours, written for the client (no robot, no id)
+                raise ResourceError(str(exc.__cause__)) from exc.__cause__
+            raise
         finally:
             _REQUEST.reset(token)
 
@@ -291,6 +336,25 @@ def register_logging_and_subscriptions(mcp: MCPServer[AppState]) -> None:
     lowlevel.add_request_handler("resources/unsubscribe", UnsubscribeRequestParams, unsubscribe)
 
 
+#: The identity rule, published as an experimental capability so that the contract (and `robocog
+#: contract check`) sees it: over HTTP without a session, a driver is the id the server issued.
+DRIVER_RULE = {"issued": True}
+
+
+def publish_driver_rule(mcp: MCPServer[AppState]) -> None:
+    """Declare `experimental["robocog/driver"]` in the server's capabilities, on every protocol
+    generation (the SDK builds them in more than one place, all through `get_capabilities`)."""
+    lowlevel = mcp._lowlevel_server
+    original = lowlevel.get_capabilities
+
+    def get_capabilities(*args: Any, **kwargs: Any) -> Any:
+        capabilities = original(*args, **kwargs)
+        experimental = {**(capabilities.experimental or {}), DRIVER_META_KEY: DRIVER_RULE}
+        return capabilities.model_copy(update={"experimental": experimental})
+
+    lowlevel.get_capabilities = get_capabilities  # type: ignore[method-assign]
+
+
 def _auth(access: AccessConfig) -> dict[str, Any]:
     """The SDK's auth arguments for a bearer token (none without one)."""
     if access.auth_token is None:
@@ -309,6 +373,7 @@ def build_server(
     view: int | None = None,
     robots: int = 1,
     per_driver: bool | None = None,
+    open_namespaces: int = DEFAULT_OPEN_NAMESPACES,
 ) -> MCPServer[AppState]:
     """The robocog MCP server for `config`; the `eval` profile adds the harness controls; `access`
     sets the bearer token, the consent gate, the published tools and the lease; `view`, a port,
@@ -330,7 +395,13 @@ def build_server(
 
     @asynccontextmanager
     async def lifespan(_: MCPServer[AppState]) -> AsyncIterator[AppState]:
-        fleet = Fleet(config, capacity=robots, per_driver=per_driver, idle_s=access.lease_idle_s)
+        fleet = Fleet(
+            config,
+            capacity=robots,
+            per_driver=per_driver,
+            idle_s=access.lease_idle_s,
+            open_namespaces=open_namespaces,
+        )
         state = current.state = AppState(fleet)
 
         async def build() -> None:
@@ -395,4 +466,5 @@ def build_server(
     register_prompts(mcp)
     register_completions(mcp, current)
     register_logging_and_subscriptions(mcp)
+    publish_driver_rule(mcp)
     return mcp

@@ -145,8 +145,8 @@ def build_parser() -> argparse.ArgumentParser:
         type=_positive(int),
         default=1,
         metavar="N",
-        help="a fleet: each HTTP session (each driver) gets a robot of its own (its world, scratchpad, episode "
-        "and memory namespace), up to N at once, sharing one embedding model and one Chroma client; "
+        help="a fleet: each HTTP session (each driver) gets a robot of its own (its world, scratchpad and "
+        "episode; memory is by namespace, shared), up to N at once, sharing one embedding model and one Chroma client; "
         "default: 1, one robot for every client (needs --transport http when above 1)",
     )
     m = p.add_argument_group("memory")
@@ -163,6 +163,14 @@ def build_parser() -> argparse.ArgumentParser:
         choices=["believed", "verified"],
         default="believed",
         help="what search_memory reports as a past episode's status (default: believed, as in the paper)",
+    )
+    m.add_argument(
+        "--memory-namespaces",
+        type=_positive(int),
+        default=32,
+        metavar="N",
+        help="a fleet keeps at most N memory namespaces open (about 2.7 MB each); past it, it closes them all "
+        "between calls and opens again those used next (default: 32)",
     )
     m.add_argument(
         "--search-k",
@@ -364,6 +372,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             view=args.view,
             robots=int(args.robots),
             per_driver=True if os.environ.get("ROBOCOG_FLEET_PROCESS") else None,
+            open_namespaces=args.memory_namespaces,
         )
     except ConfigError as exc:
         print(f"robocog-server: {exc}", file=sys.stderr)

@@ -58,7 +58,8 @@ class ConsentGate:
         gate = self
 
         async def ask(ctx: Context[Any], **arguments: Any) -> Elicit[Decision] | Decision:
-            if Driver.of(ctx.request_context).key in gate._allowed:
+            driver = Driver.of(ctx.request_context, ctx.request_context.lifespan_context.ids, issue=False)
+            if driver is not None and driver.key in gate._allowed:
                 return Decision(decision=ALLOW_SESSION)
             capabilities = ctx.client_capabilities
             if capabilities is None or capabilities.elicitation is None:
@@ -81,8 +82,9 @@ class ConsentGate:
         if not isinstance(answer, AcceptedElicitation) or answer.data.decision == DENY:
             raise ToolError(f"The user did not allow {tool.name}: the robot did not move. Ask the user why.")
         if answer.data.decision == ALLOW_SESSION:
-            driver = Driver.of(ctx.request_context)
-            if driver.key not in self._allowed:
+            # a sessionless client is remembered by its driver id (one without an id yet cannot be)
+            driver = Driver.of(ctx.request_context, ctx.request_context.lifespan_context.ids, issue=False)
+            if driver is not None and driver.key not in self._allowed:
                 self._allowed.add(driver.key)
                 if driver.connection is not None:  # the session ends: ask again next time
                     driver.connection.exit_stack.callback(self._allowed.discard, driver.key)

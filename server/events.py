@@ -8,7 +8,9 @@ read for any number of calls that finished meanwhile) and publishes it as a `sta
 
 Bounded: the bus keeps the last `BACKLOG` events; a reader that falls further behind is told so
 (a `gap` event) and catches up from the newest snapshot, so a slow browser costs the server no
-memory. Camera images that `look` returned are kept for the last `IMAGES` calls only.
+memory. Cheap per reader: an event is encoded once for all readers, and a reader that keeps up
+finds its new events from the newest end (the viewer caps the readers, `viewer.MAX_READERS`).
+Camera images that `look` returned are kept for the last `IMAGES` calls only.
 
 Everything here runs on the server's event loop (the viewer's web server shares it); nothing is
 published from a worker thread.
@@ -23,6 +25,7 @@ import time
 from collections import OrderedDict, deque
 from collections.abc import AsyncIterator, Awaitable, Callable, Mapping
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any
 
 import anyio
@@ -60,11 +63,16 @@ class Event:
     def as_json(self) -> dict[str, Any]:
         return {"seq": self.seq, "kind": self.kind, "t": round(self.t, 3), **self.data}
 
-    def sse(self) -> bytes:
-        """The event as one server-sent event (its seq is the id a reconnecting browser resumes from)."""
+    @cached_property
+    def encoded(self) -> bytes:
+        """The event as one server-sent event (its seq is the id a reconnecting browser resumes from),
+        encoded once however many readers send it."""
         return (
             f"id: {self.seq}\nevent: {self.kind}\ndata: {json.dumps(self.as_json(), ensure_ascii=False)}\n\n".encode()
         )
+
+    def sse(self) -> bytes:
+        return self.encoded
 
 
 def _short(value: Any) -> Any:
@@ -130,7 +138,13 @@ class EventBus:
         first = self._events[0].seq
         if after < first - 1:
             return [Event(self._seq, "gap", {"missed": first - 1 - after})]
-        return [e for e in self._events if e.seq > after]
+        newer: list[Event] = []  # from the newest back: a reader that keeps up costs O(1), not O(backlog)
+        for event in reversed(self._events):
+            if event.seq <= after:
+                break
+            newer.append(event)
+        newer.reverse()
+        return newer
 
     def recent(self, n: int) -> list[Event]:
         return list(self._events)[-n:]
@@ -153,6 +167,27 @@ class EventBus:
             for event in events:
                 yield event
                 after = event.seq
+
+    async def batches(
+        self, after: int, *, heartbeat_s: float | None = None, tick_s: float = 0.0
+    ) -> AsyncIterator[bytes]:
+        """Like `follow`, for a stream: the encoded events after `after` as one chunk per wake-up,
+        at most one chunk per `tick_s` (what a reader costs the event loop is a write per tick, not
+        per event, however fast the robot acts), and a keep-alive comment after `heartbeat_s`
+        without any."""
+        while not self.closed:
+            events = self.since(after)
+            if not events:
+                changed = self._changed
+                with anyio.move_on_after(heartbeat_s) as waiting:
+                    await changed.wait()
+                if waiting.cancelled_caught:
+                    yield b": keep-alive\n\n"
+                continue
+            after = events[-1].seq
+            yield b"".join(event.encoded for event in events)
+            if tick_s:
+                await anyio.sleep(tick_s)
 
     def close(self) -> None:
         self.closed = True

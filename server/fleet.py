@@ -2,15 +2,15 @@
 
 A server with one robot (the default) is what a desktop assistant talks to: every client sees the
 same world, and the first that acts holds it (the lease, `ownership.py`). A fleet
-(`robocog-server --robots N`) gives each driver its own robot instead (its world, scratchpad,
-episode and memory namespace) so that a harness keeps dozens of episodes in flight against one
-process. A driver is what `ownership.Driver` says it is: an HTTP session, a connection, or a
-client that names itself; its robot goes back to the pool when the driver goes (its connection
-closes, or it is silent for `idle_s`), and is made as good as new (`RobotSession.recycle`) before
-the next driver gets it.
+(`robocog-server --robots N`) gives each driver its own robot instead (its world, scratchpad and
+episode; memory is by namespace, shared: the server's unless a harness picks one) so that a harness
+keeps dozens of episodes in flight against one process. A driver is what `ownership.Driver` says
+it is: an HTTP session, a connection, or a sessionless client's server-issued driver id; its robot
+goes back to the pool when the driver goes (its connection closes, or it is silent for `idle_s`),
+and is made as good as new (`RobotSession.recycle`) before the next driver gets it.
 
 The robots share what is heavy and shareable: the embedding model (one per process already), and
-one Chroma client and collection handle per memory namespace (`Memories`). Each robot is its own
+one Chroma client and collection handle per memory namespace in use (`Memories`, bounded). Each robot is its own
 PyBullet client (about 37 MB) and its calls are serialised by its own lock; different robots' calls
 run on worker threads side by side (PyBullet holds the GIL while it steps, so one process uses about
 one core: a machine's cores are used by a few fleet processes).
@@ -30,7 +30,7 @@ import anyio.to_thread
 from mcp.server.mcpserver.exceptions import ToolError
 
 from robocog.server.config import DEFAULT_SESSION_IDLE_S, SessionConfig
-from robocog.server.ownership import Driver, RobotLease
+from robocog.server.ownership import UNCONFIRMED_IDLE_S, Driver, RobotLease
 from robocog.shared.protocol import FLEET_FULL
 
 if TYPE_CHECKING:
@@ -41,30 +41,88 @@ T = TypeVar("T")
 logger = logging.getLogger("robocog.server.fleet")
 
 
-class Memories:
-    """One episodic memory per namespace, opened on first use and shared by every robot of the
-    process (one Chroma client; the embedding model is per process anyway)."""
+#: Memory namespaces a fleet process keeps open at once (`--memory-namespaces`): past it, the
+#: process closes them all between calls and opens again only those used next.
+DEFAULT_OPEN_NAMESPACES = 32
+#: Uses of the memory (a search, a write, a verdict) after which it is closed and opened again
+#: all the same: Chroma's client grows with every search after a write (about 200 KB each) and
+#: gives it back only when it stops.
+RECYCLE_USES = 200
 
-    def __init__(self, config: SessionConfig) -> None:
+
+class Memories:
+    """The episodic memory of each namespace in use, opened on first use and shared by every robot
+    of the process (one Chroma client; the embedding model is per process anyway).
+
+    Bounded: Chroma keeps every collection a client has touched loaded (about 2.7 MB each), and
+    grows with every search after a write (about 200 KB each), and frees it only when its client
+    stops; so past `cap` open namespaces, or `RECYCLE_USES` uses, `due` says so and the fleet calls
+    `close_all` while no call runs (`Fleet.call`); a robot asks for its memory on each use, so the
+    next use opens it again."""
+
+    def __init__(self, config: SessionConfig, *, cap: int = DEFAULT_OPEN_NAMESPACES) -> None:
         self.config = config
+        self.cap = cap
         self._open: dict[str, EpisodicMemory] = {}
         self._lock = threading.Lock()
+        #: How often every namespace was closed to stay bounded; uses since the last time.
+        self.recycled = 0
+        self.uses = 0
+        self._announced: set[str] = set()
 
     def __call__(self, namespace: str) -> EpisodicMemory:
         from robocog.server.memory.episodic import EpisodicMemory
 
         with self._lock:  # robots open memories on worker threads
+            self.uses += 1
             memory = self._open.get(namespace)
             if memory is None:
                 memory = EpisodicMemory(self.config.data_dir, url=self.config.memory_url, namespace=namespace)
                 self._open[namespace] = memory
+                if namespace not in self._announced:  # once per namespace, not at every reopening
+                    if len(self._announced) > 1000:
+                        self._announced.clear()
+                    self._announced.add(namespace)
+                    where = (
+                        f"the Chroma server at {self.config.memory_url}"
+                        if self.config.memory_url
+                        else "embedded ChromaDB"
+                    )
+                    logger.info("episodic memory: %s, namespace %r", where, namespace)
             return memory
 
-    def close(self) -> None:
+    def drop(self, namespace: str) -> int:
+        """Delete `namespace` and its files (`EpisodicMemory.drop`: the bytes removed), and forget
+        its handle."""
+        memory = self(namespace)
+        with self._lock:
+            freed = memory.drop()
+            self._open.pop(namespace, None)
+            memory.close()
+        return freed
+
+    @property
+    def due(self) -> bool:
+        """Whether to close them all (more than `cap` open, or `RECYCLE_USES` uses since)."""
+        return len(self._open) > self.cap or (self.uses >= RECYCLE_USES and bool(self._open))
+
+    def open_namespaces(self) -> int:
+        return len(self._open)
+
+    def close_all(self) -> None:
+        """Close every namespace (call it while no robot uses one); Chroma's client stops with the
+        last of them, and returns what it held."""
+        from robocog.server.memory.episodic import release_heap
+
         with self._lock:
             for memory in self._open.values():
                 memory.close()
             self._open.clear()
+            self.uses = 0
+        release_heap()
+
+    def close(self) -> None:
+        self.close_all()
 
 
 @dataclass(eq=False)
@@ -81,6 +139,8 @@ class Robot:
     #: Whether a driver has had it (recycle it before the next one).
     used: bool = False
     last_call: float = 0.0
+    #: Whether its sessionless driver has sent its issued id back (else it idles out sooner).
+    confirmed: bool = True
 
     async def run(self, fn: Callable[[RobotSession], T], limiter: anyio.CapacityLimiter | None = None) -> T:
         """Run `fn(session)` on a worker thread, one call at a time on this robot, to completion
@@ -109,6 +169,7 @@ class Fleet:
         per_driver: bool | None = None,
         idle_s: float = DEFAULT_SESSION_IDLE_S,
         clock: Callable[[], float] = time.monotonic,
+        open_namespaces: int = DEFAULT_OPEN_NAMESPACES,
     ) -> None:
         if capacity < 1:
             raise ValueError(f"a server has at least one robot, not {capacity}")
@@ -119,7 +180,12 @@ class Fleet:
         self.per_driver = capacity > 1 if per_driver is None else per_driver
         self.idle_s = idle_s
         self._clock = clock
-        self.memories = Memories(config)
+        self.memories = Memories(config, cap=open_namespaces)
+        #: Calls running or waiting for their robot, and the gate that holds new ones while the
+        #: memories are closed (`call`).
+        self._calls = 0
+        self._drained = anyio.Event()
+        self._gate: anyio.Event | None = None
         self.robots: list[Robot] = []
         self._free: list[Robot] = []
         self._bound: dict[Hashable, Robot] = {}
@@ -140,8 +206,7 @@ class Fleet:
         """Build one more robot (on a worker thread: it takes about 0.2 s) and keep it free."""
         from robocog.server.session import RobotSession
 
-        memories = None if self.shared else self.memories
-        session = RobotSession(self.config, memories=memories)
+        session = RobotSession(self.config, memories=self.memories)
         lease = RobotLease(idle_s=self.idle_s, clock=self._clock)
         robot = Robot(number=len(self.robots) + 1, session=session, lease=lease, clock=self._clock)
         self.robots.append(robot)
@@ -159,6 +224,7 @@ class Fleet:
             return first
         robot = self._bound.get(driver.key)
         if robot is not None:
+            robot.confirmed = robot.confirmed or not driver.issued_now
             return robot
         async with self._assigning:
             robot = self._bound.get(driver.key)
@@ -185,12 +251,43 @@ class Fleet:
                     raise
             robot.used = True
             robot.driver = driver
+            robot.confirmed = not driver.issued_now
             robot.last_call = self._clock()
             self._bound[driver.key] = robot
             if driver.connection is not None:
                 driver.connection.exit_stack.callback(self.release, driver.key)
             logger.info("robot %d now driven by %s", robot.number, driver.label)
             return robot
+
+    async def call(self, robot: Robot, fn: Callable[[RobotSession], T]) -> T:
+        """Run `fn` on `robot` (see `Robot.run`); afterwards, if the memories are due to be closed
+        (`Memories.due`), hold new calls, let the running ones finish, and close them all."""
+        while self._gate is not None:
+            await self._gate.wait()
+        self._calls += 1
+        try:
+            return await robot.run(fn, self.limiter)
+        finally:
+            self._calls -= 1
+            if self._calls == 0:
+                self._drained.set()
+            if self.memories.due and self._gate is None:
+                await self._close_memories()
+
+    async def _close_memories(self) -> None:
+        gate = self._gate = anyio.Event()
+        try:
+            with anyio.CancelScope(shield=True):
+                while self._calls:
+                    self._drained = anyio.Event()
+                    await self._drained.wait()
+                opened = self.memories.open_namespaces()
+                await anyio.to_thread.run_sync(self.memories.close_all, limiter=self.limiter)
+                self.memories.recycled += 1
+                logger.info("closed the memory (%d namespaces open) to keep it bounded", opened)
+        finally:
+            self._gate = None
+            gate.set()
 
     def release(self, key: Hashable) -> None:
         """The driver `key` has gone: its robot is free again (recycled before its next driver)."""
@@ -202,12 +299,13 @@ class Fleet:
             logger.info("robot %d is free", robot.number)
 
     def _release_idle(self) -> None:
-        """Free the robots of drivers without a connection (they name themselves on each call) that
-        have been silent for `idle_s`."""
+        """Free the robots of drivers without a connection (they send their issued id on each call)
+        that have been silent for `idle_s`, or `UNCONFIRMED_IDLE_S` if they never sent it back."""
         now = self._clock()
         for key, robot in list(self._bound.items()):
             sessionless = robot.driver is not None and robot.driver.connection is None
-            if sessionless and now - robot.last_call > self.idle_s and not robot.lock.locked():
+            limit = self.idle_s if robot.confirmed else min(self.idle_s, UNCONFIRMED_IDLE_S)
+            if sessionless and now - robot.last_call > limit and not robot.lock.locked():
                 self.release(key)
 
     def in_use(self) -> int:

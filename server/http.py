@@ -10,7 +10,9 @@
   machine's names, and whatever `--allowed-host`/`--allowed-origin` add; a foreign Host gets 421,
   a foreign Origin 403.
 - **Sessions**: at most `--max-sessions` open at once (503 with a message saying so past the cap),
-  each closed after `--session-idle-s` without a request, its memory returned.
+  each closed after `--session-idle-s` without a request, its memory returned; sooner when its
+  client is seen gone (`VanishedClients`): its event stream closed for good, or it never went
+  beyond `initialize`.
 """
 
 from __future__ import annotations
@@ -191,6 +193,148 @@ class SessionCapMessage:
         await self.app(scope, receive, rewrite)
 
 
+#: A session whose client's event stream (its GET) closed, with nothing in flight, is closed this
+#: long after, unless the client opens a stream again (its SDK reconnects within a second or two).
+GONE_GRACE_S = 5.0
+#: A session that never made a request beyond the handshake, and has no stream open, is closed
+#: this long after it was opened (its client vanished after `initialize`).
+INIT_ONLY_S = 30.0
+
+
+@dataclass
+class _Seen:
+    """What the transport shows of one session: its open event streams, its requests in flight,
+    how many requests it made, and the request to send its DELETE as (its headers)."""
+
+    scope: dict[str, Any]
+    opened: float
+    streams: int = 0
+    inflight: int = 0
+    posts: int = 0
+    had_stream: bool = False
+    quiet_since: float = 0.0
+
+
+class VanishedClients:
+    """ASGI middleware: free a session's robot promptly when its client is gone, where the transport
+    shows it. An MCP client with a session keeps an event stream (a GET) open; when that stream
+    closes and is not opened again within `GONE_GRACE_S`, with no request in flight, the client has
+    gone (killed, crashed, its machine off the network), and the session is closed as its own
+    DELETE would close it (its robot goes back to the pool, its lease ends). A session that never
+    went beyond `initialize` (and opened no stream) is closed after `INIT_ONLY_S`. Every other
+    session idles out after `--session-idle-s`, as before."""
+
+    def __init__(self, app: ASGIApp, *, idle_s: float = DEFAULT_SESSION_IDLE_S, clock: Any = None) -> None:
+        import time
+
+        self.app = app
+        self.idle_s = idle_s
+        self.clock = clock or time.monotonic
+        self.sessions: dict[str, _Seen] = {}
+        self.closed = 0
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] == "lifespan":
+            import anyio
+
+            async with anyio.create_task_group() as tg:
+                tg.start_soon(self._watch)
+                await self.app(scope, receive, send)
+                tg.cancel_scope.cancel()
+            return
+        if scope["type"] != "http" or scope.get("path", "").rstrip("/") != "/mcp":
+            await self.app(scope, receive, send)
+            return
+        sid = _header(scope, b"mcp-session-id")
+        method = scope.get("method")
+        seen = self.sessions.get(sid) if sid else None
+        if method == "DELETE" and sid:
+            self.sessions.pop(sid, None)
+            await self.app(scope, receive, send)
+            return
+        if seen is not None:
+            seen.inflight += 1
+            if method == "GET":
+                seen.streams += 1
+                seen.had_stream = True
+            else:
+                seen.posts += 1
+        new_sid: list[str] = []
+
+        async def watching(message: Message) -> None:
+            if message["type"] == "http.response.start" and sid is None and message["status"] < 400:
+                for key, value in message.get("headers", []):
+                    if key.lower() == b"mcp-session-id":
+                        new_sid.append(value.decode("latin-1"))
+            await send(message)
+
+        try:
+            await self.app(scope, receive, watching)
+        finally:
+            now = self.clock()
+            if seen is not None:
+                seen.inflight -= 1
+                if method == "GET":
+                    seen.streams -= 1
+                seen.quiet_since = now
+            for opened in new_sid:  # a new session (initialize): remember how to close it
+                headers = [(k, v) for k, v in scope.get("headers", []) if k.lower() != b"content-length"]
+                headers.append((b"mcp-session-id", opened.encode("latin-1")))
+                self.sessions[opened] = _Seen({**scope, "headers": headers}, opened=now, quiet_since=now)
+
+    def gone(self, now: float) -> list[tuple[str, str]]:
+        """The sessions to close now, and why (those the SDK has idled out are forgotten)."""
+        out = []
+        for sid, seen in list(self.sessions.items()):
+            if seen.inflight or seen.streams:
+                continue
+            if now - seen.quiet_since > self.idle_s:
+                del self.sessions[sid]
+                continue
+            if seen.had_stream and now - seen.quiet_since > GONE_GRACE_S:
+                out.append((sid, "its client went away (its event stream closed)"))
+            elif not seen.had_stream and seen.posts <= 1 and now - seen.opened > INIT_ONLY_S:
+                out.append((sid, f"it made no request in {INIT_ONLY_S:g} s after initialize"))
+        return out
+
+    async def _watch(self) -> None:
+        import anyio
+
+        while True:
+            await anyio.sleep(1.0)
+            for sid, why in self.gone(self.clock()):
+                seen = self.sessions.pop(sid, None)
+                if seen is not None:
+                    await self._close(sid, seen, why)
+
+    async def _close(self, sid: str, seen: _Seen, why: str) -> None:
+        """DELETE the session through the app, with the headers its client sent."""
+        import logging
+
+        scope = {**seen.scope, "method": "DELETE", "query_string": b""}
+
+        async def receive() -> Message:
+            return {"type": "http.request", "body": b"", "more_body": False}
+
+        async def discard(message: Message) -> None:
+            return None
+
+        try:
+            await self.app(scope, receive, discard)
+        except Exception as exc:  # the session may have ended meanwhile
+            logging.getLogger("robocog.server").debug("closing session %s: %s", sid[:8], exc)
+            return
+        self.closed += 1
+        logging.getLogger("robocog.server").info("session %s… closed: %s", sid[:8], why)
+
+
+def _header(scope: Scope, name: bytes) -> str | None:
+    for key, value in scope.get("headers", []):
+        if key.lower() == name:
+            return str(value.decode("latin-1"))
+    return None
+
+
 def build_app(mcp: MCPServer[Any], options: HttpOptions) -> ASGIApp:
     """The Starlette app of `mcp` with robocog's limits and checks."""
     app = mcp.streamable_http_app(
@@ -199,7 +343,8 @@ def build_app(mcp: MCPServer[Any], options: HttpOptions) -> ASGIApp:
         max_sessions=options.max_sessions,
         session_idle_timeout=options.session_idle_s,
     )
-    return SessionCapMessage(app, max_sessions=options.max_sessions, idle_s=options.session_idle_s)
+    capped = SessionCapMessage(app, max_sessions=options.max_sessions, idle_s=options.session_idle_s)
+    return VanishedClients(capped, idle_s=options.session_idle_s)
 
 
 def serve(mcp: MCPServer[Any], options: HttpOptions, *, log_level: str = "warning") -> None:

@@ -12,9 +12,9 @@ from __future__ import annotations
 import logging
 import time
 import uuid
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, TypeVar
+from typing import Any, Protocol, TypeVar
 
 from pydantic import BaseModel
 
@@ -30,8 +30,17 @@ from robocog.shared.suite import Instance, find_instance
 from robocog.shared.tasks import TaskSpec
 
 R = TypeVar("R", bound=BaseModel)
-#: Opens the episodic memory of a namespace (a fleet's robots share one per namespace: `server/fleet.py`).
-MemoryProvider = Callable[[str], EpisodicMemory]
+
+
+class MemoryProvider(Protocol):
+    """Opens the episodic memory of a namespace, and deletes one (a server's robots share one per
+    namespace: `server/fleet.py`, `Memories`)."""
+
+    def __call__(self, namespace: str) -> EpisodicMemory: ...
+
+    def drop(self, namespace: str) -> int: ...
+
+
 logger = logging.getLogger("robocog.server.session")
 
 
@@ -94,12 +103,11 @@ class RobotSession:
     @property
     def memory(self) -> EpisodicMemory:
         """The episodic memory, opened on first use (a session that never remembers needs no database)."""
+        if self._memories is not None:  # a fleet's: asked for each time (the fleet may have closed it since)
+            return self._memories(self._namespace)
         if self._memory is None:
             config = self.config
-            if self._memories is not None:
-                self._memory = self._memories(self._namespace)
-            else:
-                self._memory = EpisodicMemory(config.data_dir, url=config.memory_url, namespace=self._namespace)
+            self._memory = EpisodicMemory(config.data_dir, url=config.memory_url, namespace=self._namespace)
             where = f"the Chroma server at {config.memory_url}" if config.memory_url else "embedded ChromaDB"
             logger.info("episodic memory: %s, namespace %r", where, self._namespace)
         return self._memory
@@ -118,9 +126,30 @@ class RobotSession:
         if namespace == self._namespace:
             return
         if self._memory is not None and self._memories is None:
-            self._memory.close()
+            from robocog.server.memory.episodic import release_heap
+
+            self._memory.close()  # Chroma's client stops with it and returns what the namespace held
+            release_heap()
         self._memory = None
         self._namespace = namespace
+
+    def drop_namespace(self) -> int:
+        """Delete this robot's memory namespace with its files on disk (a harness does, for the
+        namespace it made for a unit, when the unit ends; the bytes removed); the robot goes back
+        to the server's own."""
+        if self._namespace == self.config.namespace:
+            raise ValueError(
+                f"drop: {self._namespace!r} is the server's own memory namespace (--memory-namespace); only a "
+                "namespace given with reset_world(memory_namespace=...) can be dropped"
+            )
+        if self._memories is not None:
+            freed = self._memories.drop(self._namespace)
+        else:
+            freed = self.memory.drop()
+            self.memory.close()
+            self._memory = None
+        self._namespace = self.config.namespace
+        return freed
 
     def recycle(self) -> None:
         """Make this robot as good as new for its next driver (a fleet reuses robots): the world at
@@ -152,9 +181,10 @@ class RobotSession:
 
     def invoke(self, tool: Tool[R], arguments: Mapping[str, Any], caller: Caller | None = None) -> R:
         """Run one tool for `caller` (a progress sink, the model's label); a robot tool counts as one
-        of the episode's calls, and the first after end_task begins a new episode, unless it is the same
-        end_task again (a retry of a call whose answer was lost: it answers for the episode that ended)."""
-        if tool.counts_as_episode_call:
+        of the episode's calls (unless the caller does not: a client watching the driver's robot),
+        and the first after end_task begins a new episode, unless it is the same end_task again (a
+        retry of a call whose answer was lost: it answers for the episode that ended)."""
+        if tool.counts_as_episode_call and (caller is None or caller.counts):
             retry = tool.ends_episode and self.episode.report == dict(arguments)
             if self.episode.ended and not retry:
                 self.start_episode()

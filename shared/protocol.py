@@ -3,8 +3,9 @@
 #: `_meta` key a client sets on tool calls to name the model driving the robot; end_task stores it.
 MODEL_META_KEY = "robocog/model"
 
-#: `_meta` key a client without an MCP session (protocol 2026-07-28 and later) sets on every call to
-#: name itself as the robot's driver: the robot is held by one driver at a time (see server/ownership.py).
+#: `_meta` key of the driver id: the server issues one to an HTTP client without an MCP session
+#: (protocol 2026-07-28 and later) in the result of its first call that needs a robot, and the client
+#: sends it back on every later call; the robot is held by one driver at a time (server/ownership.py).
 DRIVER_META_KEY = "robocog/driver"
 
 #: Words every "the fleet is full" error of a server holds (a tool or resource error, a 503 at initialize):
@@ -33,4 +34,4 @@ VISION_TOOLS = frozenset({"look"})
 
 #: The version of the published MCP contract (assets/contract/, CHANGELOG.md there). The server announces
 #: it in its instructions as "MCP contract X.Y"; `robocog contract` reads it back from there.
-CONTRACT_VERSION = "2.1"
+CONTRACT_VERSION = "3.0"

@@ -12,6 +12,7 @@ from it, and writing it again replaces it: one episode, one record, however ofte
 
 from __future__ import annotations
 
+import contextlib
 import os
 import threading
 import uuid
@@ -41,6 +42,19 @@ _WRITE_BATCH = 1024
 _STATUSES: tuple[Status, ...] = ("success", "failure")
 #: Namespace of the record ids derived from episode ids.
 _EPISODE_IDS = uuid.UUID("4f0c3c56-2f55-4d0e-9a53-6f1f4b1f7a11")
+
+
+def release_heap() -> None:
+    """Give the C heap's free memory back to the system (glibc's malloc_trim): after Chroma's client
+    stops, what its collections held is otherwise kept by the allocator; a no-op elsewhere."""
+    import ctypes
+    import ctypes.util
+
+    name = ctypes.util.find_library("c")
+    if name is None:
+        return
+    with contextlib.suppress(OSError, AttributeError):
+        ctypes.CDLL(name).malloc_trim(0)
 
 
 def record_id(episode: str | None) -> str:
@@ -113,6 +127,7 @@ class EpisodicMemory:
         os.environ["ANONYMIZED_TELEMETRY"] = "False"
         settings = Settings(anonymized_telemetry=False)
         self._client: ClientAPI
+        self._url = url
         if url is not None:
             host, port, ssl = parse_chroma_url(url)
             try:
@@ -209,6 +224,28 @@ class EpisodicMemory:
         step = max(1, min(self._client.get_max_batch_size(), 5000))
         for start in range(0, len(ids), step):
             self._collection.delete(ids=ids[start : start + step])
+
+    def drop(self) -> int:
+        """Delete the namespace itself: its collection and, embedded, its index files on disk (the
+        memory cannot be used after; opening the namespace again makes it anew, empty). Returns the
+        bytes of files removed (0 on a Chroma server). Chroma's own `delete_collection` leaves the
+        index directories behind, so they are found in its catalogue first and removed after."""
+        import shutil
+        import sqlite3
+
+        directories: list[Path] = []
+        if self._url is None:
+            root = Path(self.location)
+            with contextlib.closing(sqlite3.connect(root / "chroma.sqlite3")) as catalogue:
+                rows = catalogue.execute(
+                    "SELECT id FROM segments WHERE collection = ?", (str(self._collection.id),)
+                ).fetchall()
+            directories = [root / str(row[0]) for row in rows if (root / str(row[0])).is_dir()]
+        size = sum(f.stat().st_size for d in directories for f in d.rglob("*") if f.is_file())
+        self._client.delete_collection(self._collection.name)
+        for directory in directories:
+            shutil.rmtree(directory, ignore_errors=True)
+        return size
 
     # -- reading ------------------------------------------------------------------------------
 

@@ -71,10 +71,12 @@ def max_length(annotation: object) -> int | None:
 
 @dataclass(frozen=True)
 class Caller:
-    """Who is calling, for the duration of one call: a progress sink and the driving model's label."""
+    """Who is calling, for the duration of one call: a progress sink, the driving model's label, and
+    whether the call is one of the episode's (not when a client watches a robot another drives)."""
 
     progress: ProgressFn | None = None
     model: str | None = None
+    counts: bool = True
 
     def report(self, done: float, total: float, message: str) -> None:
         if self.progress is not None:

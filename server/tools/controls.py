@@ -72,6 +72,9 @@ class ClearMemoryResult(BaseModel):
     """The outcome of clear_memory."""
 
     removed: int = Field(description="records removed from this memory namespace")
+    freed_bytes: int | None = Field(
+        default=None, description="with drop: bytes of the namespace's files removed from disk (0 on a Chroma server)"
+    )
 
 
 def reset_world(
@@ -159,9 +162,21 @@ def check_task(robot: RobotSession, task_id: TaskIdArg) -> TaskVerdict:
     return verdict
 
 
-def clear_memory(robot: RobotSession) -> ClearMemoryResult:
-    """Forget every stored episode in this server's memory namespace."""
+def clear_memory(
+    robot: RobotSession,
+    drop: Annotated[
+        bool,
+        Field(
+            description="Also delete the namespace itself, with its files on disk, and go back to the server's "
+            "own namespace: for a namespace reset_world(memory_namespace=...) made for one unit, once the unit "
+            "ends (the server's own namespace cannot be dropped)"
+        ),
+    ] = False,
+) -> ClearMemoryResult:
+    """Forget every stored episode in this robot's memory namespace; with drop, delete the namespace."""
     removed = robot.memory.count()
+    if drop:
+        return ClearMemoryResult(removed=removed, freed_bytes=robot.drop_namespace())
     robot.memory.clear()
     return ClearMemoryResult(removed=removed)
 

@@ -46,6 +46,10 @@ HOST = "127.0.0.1"
 RECENT = 100
 #: Seconds between keep-alive comments on an idle event stream (a closed page is noticed then).
 HEARTBEAT_S = 10.0
+#: Event streams open at once; past it a reader gets 503 (they share the robot's event loop).
+MAX_READERS = 16
+#: A reader is sent what happened at most this often (seconds), all of it in one write.
+TICK_S = 0.5
 
 
 def scene_json(session: RobotSession) -> dict[str, Any]:
@@ -114,10 +118,15 @@ class _Embedded:
 class Viewer:
     """The live viewer of one server: its event bus, its web app and the socket it serves on."""
 
-    def __init__(self, state: AppState, bus: EventBus, port: int = DEFAULT_PORT) -> None:
+    def __init__(
+        self, state: AppState, bus: EventBus, port: int = DEFAULT_PORT, *, max_readers: int = MAX_READERS
+    ) -> None:
         self.state = state
         self.bus = bus
         self.port = port
+        self.max_readers = max_readers
+        #: Event streams open now.
+        self.readers = 0
         self._scene: dict[str, Any] | None = None
         self._camera: dict[tuple[int, str], bytes] = {}
         self._camera_lock = anyio.Lock()
@@ -213,14 +222,33 @@ class Viewer:
             after = int(request.headers.get("last-event-id") or request.query_params.get("after") or self.bus.seq)
         except ValueError:
             return JSONResponse({"error": "after must be a whole number"}, status_code=400)
+        if self.readers >= self.max_readers:
+            return JSONResponse(
+                {
+                    "error": f"the live viewer serves at most {self.max_readers} event streams at once and all are "
+                    "open; close a viewer page and reload this one"
+                },
+                status_code=503,
+                headers={"Retry-After": "5"},
+            )
+        self.readers += 1  # counted now (a burst of readers cannot overshoot the cap), until the stream ends
 
         async def stream() -> Any:
             yield b"retry: 1000\n\n"
-            async for event in self.bus.follow(after, heartbeat_s=HEARTBEAT_S):
-                yield b": keep-alive\n\n" if event is None else event.sse()
+            async for chunk in self.bus.batches(after, heartbeat_s=HEARTBEAT_S, tick_s=TICK_S):
+                yield chunk
+
+        viewer = self
+
+        class Counted(StreamingResponse):
+            async def __call__(self, scope: Any, receive: Any, send: Any) -> None:
+                try:
+                    await super().__call__(scope, receive, send)
+                finally:
+                    viewer.readers -= 1
 
         headers = {"Cache-Control": "no-store", "X-Accel-Buffering": "no"}
-        return StreamingResponse(stream(), media_type="text/event-stream", headers=headers)
+        return Counted(stream(), media_type="text/event-stream", headers=headers)
 
     async def camera(self, request: Request) -> Response:
         """The robot's camera now (PNG), rendered once per world snapshot and direction."""

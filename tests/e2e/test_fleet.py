@@ -242,7 +242,7 @@ def test_the_router_splits_robots_and_arguments_and_keeps_a_sessionless_driver_i
     router = Router([Upstream(0, 1, 2), Upstream(1, 2, 2)])
     call_by = json.dumps({"jsonrpc": "2.0", "id": 1, "method": "tools/call", "params": {"_meta": {DRIVER: "me"}}})
     assert len({router.pick(call_by.encode()).index for _ in range(5)}) == 1, "always the same process"
-    router.upstreams[0].sessions["s1"] = 0.0
+    router.upstreams[0].active.add("s1")  # a session that made a call
     initialize = b'{"jsonrpc": "2.0", "id": 1, "method": "initialize"}'
     assert router.pick(initialize).index == 1, "the least loaded"
     router.upstreams[1].pending = 2  # a burst of new sessions not yet answered counts at once

@@ -5,27 +5,39 @@ from __future__ import annotations
 import subprocess
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 from mcp import Client
+from mcp_types import CallToolResult
 
+from robocog.shared.protocol import DRIVER_META_KEY
 from tests.helpers import T1, T1_SEQUENCE, T2, T2_SEQUENCE, action_args, http_server, server_command, stdio_params
 
 pytestmark = pytest.mark.anyio
 
 
 async def run_t1_then_t2(client: Client) -> None:
+    meta: dict[str, Any] | None = None  # over HTTP without a session: the driver id the server issued
+
+    async def call(tool: str, arguments: dict[str, Any]) -> CallToolResult:
+        nonlocal meta
+        result = await client.call_tool(tool, arguments, meta=meta)  # type: ignore[arg-type]
+        issued = (result.meta or {}).get(DRIVER_META_KEY)
+        meta = {DRIVER_META_KEY: issued} if issued else meta
+        return result
+
     for task_id, sequence, prompt in (
         ("T1", T1_SEQUENCE, T1),
         ("T2", T2_SEQUENCE, T2),
     ):
-        before = await client.call_tool("check_task", {"task_id": task_id})
+        before = await call("check_task", {"task_id": task_id})
         assert before.structured_content is not None and before.structured_content["success"] is False
         for action in sequence:
-            result = await client.call_tool(action[0], action_args(action))
+            result = await call(action[0], action_args(action))
             assert not result.is_error, result.content
-        await client.call_tool("end_task", {"status": "success", "description": prompt, "summary": "done"})
-        after = await client.call_tool("check_task", {"task_id": task_id})
+        await call("end_task", {"status": "success", "description": prompt, "summary": "done"})
+        after = await call("check_task", {"task_id": task_id})
         assert after.structured_content is not None and after.structured_content["success"] is True, after.content
 
 

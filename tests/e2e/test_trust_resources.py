@@ -1,0 +1,240 @@
+"""Bounded resources: a fleet that serves 200 memory namespaces keeps its memory bounded (it closes
+them past `--memory-namespaces` and opens again those used next, their records intact), and the
+namespace rule holds as the README says it once: robots share the server's namespace unless
+`reset_world(memory_namespace=...)` gives them another. A real HTTP server process."""
+
+from __future__ import annotations
+
+import socket
+import subprocess
+import time
+from collections.abc import AsyncIterator, Iterator
+from contextlib import asynccontextmanager, contextmanager
+from pathlib import Path
+from typing import Any
+
+import pytest
+from mcp import Client
+
+from tests.helpers import free_port, server_command, server_env
+
+pytestmark = pytest.mark.anyio
+
+NAMESPACES = 200
+WARM_UP = 40
+OPEN = 8
+
+
+@contextmanager
+def fleet(tmp: Path, *args: str) -> Iterator[tuple[str, subprocess.Popen[bytes]]]:
+    port = free_port()
+    log = tmp / "server.log"
+    with log.open("wb") as out:
+        proc = subprocess.Popen(
+            [*server_command(), "--transport", "http", "--port", str(port), "--profile", "eval", *args],
+            stdout=out,
+            stderr=subprocess.STDOUT,
+            env=server_env(),
+        )
+        try:
+            deadline = time.monotonic() + 60
+            while True:
+                assert proc.poll() is None, log.read_text(errors="replace")
+                assert time.monotonic() < deadline, "the server did not listen"
+                with socket.socket() as s:
+                    if s.connect_ex(("127.0.0.1", port)) == 0:
+                        break
+                time.sleep(0.1)
+            yield f"http://127.0.0.1:{port}/mcp", proc
+        finally:
+            proc.terminate()
+            proc.wait(timeout=30)
+
+
+def rss_mb(pid: int) -> float:
+    return int(Path(f"/proc/{pid}/statm").read_text().split()[1]) * 4096 / 1e6
+
+
+@asynccontextmanager
+async def session(url: str) -> AsyncIterator[Client]:
+    from mcp.client.streamable_http import streamable_http_client
+
+    async with Client(streamable_http_client(url), mode="legacy") as client:
+        yield client
+
+
+async def call(client: Client, tool: str, **arguments: Any) -> dict[str, Any]:
+    result = await client.call_tool(tool, arguments)
+    assert not result.is_error, result.content
+    assert isinstance(result.structured_content, dict)
+    return result.structured_content
+
+
+def own_rss_mb() -> float:
+    return int(Path("/proc/self/statm").read_text().split()[1]) * 4096 / 1e6
+
+
+async def test_200_namespaces_keep_a_fleets_memory_bounded(tmp_path: Path) -> None:
+    """Two robots of a real fleet (PyBullet, embedded Chroma) write to 200 namespaces, side by side,
+    through the fleet's calls; past `OPEN` open namespaces the fleet closes them between calls."""
+    import anyio
+
+    from robocog.server.config import SessionConfig
+    from robocog.server.fleet import Fleet
+    from robocog.server.ownership import Driver
+
+    fleet = Fleet(SessionConfig(data_dir=tmp_path / "memory"), capacity=2, open_namespaces=OPEN)
+    try:
+        await anyio.to_thread.run_sync(fleet.build)
+        robots = [await fleet.robot_for(Driver(("driver", n), n, None)) for n in ("one", "two")]
+
+        def write(namespace: str) -> Any:
+            def run(session: Any) -> None:
+                session.use_namespace(namespace)
+                session.memory.add(f"task of {namespace}", "success", f"did {namespace}")
+
+            return run
+
+        async def units(robot: Any, start: int, stop: int) -> None:
+            for i in range(start, stop, 2):
+                await fleet.call(robot, write(f"unit-{i}"))
+
+        async def both(start: int, stop: int) -> None:  # both robots at once: closing waits for their calls
+            async with anyio.create_task_group() as tg:
+                tg.start_soon(units, robots[0], start, stop)
+                tg.start_soon(units, robots[1], start + 1, stop)
+
+        await both(0, WARM_UP)  # the embedding model, Chroma, the worker threads, the first closings
+        before = own_rss_mb()
+        await both(WARM_UP, NAMESPACES)
+        grown = own_rss_mb() - before
+        # unbounded, 160 namespaces cost about 2.7 MB each (~430 MB); bounded, a few closings' noise
+        assert grown < 100, f"RSS grew {grown:.0f} MB over {NAMESPACES - WARM_UP} namespaces"
+        assert fleet.memories.open_namespaces() <= OPEN + 2 and fleet.memories.recycled >= 20
+
+        def find(session: Any) -> list[str]:  # a namespace closed long ago opens again with its record
+            session.use_namespace("unit-4")
+            return [h.record.summary for h in session.memory.search("task of unit-4", k=1)]
+
+        assert await fleet.call(robots[1], find) == ["did unit-4"]
+    finally:
+        fleet.close()
+
+
+async def test_robots_share_the_servers_namespace_unless_told_otherwise(tmp_path: Path) -> None:
+    with fleet(tmp_path, "--robots", "2", "--data-dir", str(tmp_path / "memory")) as (url, _):
+        async with session(url) as a, session(url) as b:
+            await call(a, "end_task", status="failure", description="grasp the TV", summary="too heavy")
+            found = await call(b, "search_memory", query="grasp the TV")
+            assert [r["summary"] for r in found["results"]] == ["too heavy"], "one namespace: shared"
+            await call(b, "reset_world", memory_namespace="b-own")
+            assert (await call(b, "search_memory", query="grasp the TV"))["results"] == []
+            assert (await call(b, "clear_memory"))["removed"] == 0, "b's clear_memory clears only b's namespace"
+            assert len((await call(a, "search_memory", query="grasp the TV"))["results"]) == 1
+
+
+#: A client that takes a robot and then waits forever (until it is killed).
+HOLDER = """
+import sys, anyio
+from mcp import Client
+from mcp.client.streamable_http import streamable_http_client
+
+async def main():
+    async with Client(streamable_http_client(sys.argv[1]), mode="legacy") as client:
+        assert not (await client.call_tool("move_to", {"location": "Kitchen Door"})).is_error
+        print("holding", flush=True)
+        await anyio.sleep(3600)
+
+anyio.run(main)
+"""
+
+
+async def test_robots_of_clients_killed_mid_session_are_freed_promptly(tmp_path: Path) -> None:
+    import os
+    import signal
+    import sys
+
+    import anyio
+
+    with fleet(tmp_path, "--robots", "2", "--data-dir", str(tmp_path / "memory")) as (url, _):
+        holders = [
+            subprocess.Popen([sys.executable, "-c", HOLDER, url], stdout=subprocess.PIPE, env=server_env())
+            for _ in range(2)
+        ]
+        try:
+            for holder in holders:
+                assert holder.stdout is not None and holder.stdout.readline().strip() == b"holding"
+            async with session(url) as late:
+                refused = await late.call_tool("look_around", {})
+                assert refused.is_error and "all 2 robots" in str(refused.content)
+            for holder in holders:
+                os.kill(holder.pid, signal.SIGKILL)
+                holder.wait()
+            # both robots come back within seconds, not after --session-idle-s (600 s)
+            async with session(url) as a, session(url) as b:
+                for client in (a, b):
+                    with anyio.fail_after(60):
+                        while (result := await client.call_tool("look_around", {})).is_error:
+                            await anyio.sleep(0.5)
+                    assert isinstance(result.structured_content, dict)
+                    assert result.structured_content["location"] == "Front Door", "recycled"
+        finally:
+            for holder in holders:
+                if holder.poll() is None:
+                    holder.kill()
+                    holder.wait()
+
+
+async def test_a_memory_used_again_and_again_is_closed_and_opened_again_intact(tmp_path: Path) -> None:
+    """Chroma grows with every search after a write until its client stops: the robot's memory is
+    closed every RECYCLE_USES uses (between calls), and what it holds is there after."""
+    import anyio
+
+    from robocog.server.config import SessionConfig
+    from robocog.server.fleet import RECYCLE_USES, Fleet
+
+    fleet = Fleet(SessionConfig(data_dir=tmp_path / "memory"))  # one robot for all, as a desktop server
+    try:
+        robot = await anyio.to_thread.run_sync(fleet.build)
+
+        def write_and_search(i: int) -> Any:
+            def run(session: Any) -> list[str]:
+                session.memory.add(f"task {i}", "success", f"did {i}")
+                return [h.record.summary for h in session.memory.search("task 0", k=1)]
+
+            return run
+
+        for i in range(RECYCLE_USES // 2 + 5):  # two uses a call
+            assert await fleet.call(robot, write_and_search(i)) == ["did 0"]
+        assert fleet.memories.recycled == 1
+        assert await fleet.call(robot, lambda s: s.memory.count()) == RECYCLE_USES // 2 + 5
+    finally:
+        fleet.close()
+
+
+async def test_a_units_namespace_can_be_dropped_with_its_files_and_the_servers_cannot(tmp_path: Path) -> None:
+    from robocog.server.app import build_server
+    from robocog.server.config import SessionConfig
+
+    data = tmp_path / "memory"
+    server = build_server(SessionConfig(data_dir=data), profile="eval")
+
+    def index_dirs() -> set[str]:  # embedded Chroma keeps each collection's index in a directory of its own
+        return {p.name for p in data.iterdir() if p.is_dir()}
+
+    async with Client(server, mode="legacy") as client:
+        await call(client, "end_task", status="success", description="kept", summary="the server's own")
+        await call(client, "reset_world", memory_namespace="unit-7")
+        for i in range(3):
+            await call(client, "end_task", status="success", description=f"unit task {i}", summary="s")
+        await call(client, "search_memory", query="unit task")
+        before = index_dirs()
+        dropped = await call(client, "clear_memory", drop=True)
+        assert dropped["removed"] == 3 and dropped["freed_bytes"] > 0
+        assert len(index_dirs()) < len(before), "the namespace's files are gone"
+        found = await call(client, "search_memory", query="kept")
+        assert [r["summary"] for r in found["results"]] == ["the server's own"], "back in the server's namespace"
+        refused = await client.call_tool("clear_memory", {"drop": True})
+        assert refused.is_error and "is the server's own memory namespace" in str(refused.content)
+        await call(client, "reset_world", memory_namespace="unit-7")
+        assert (await call(client, "search_memory", query="unit task"))["results"] == [], "made anew, empty"
