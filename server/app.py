@@ -12,16 +12,13 @@ in `http.py`.
 
 from __future__ import annotations
 
-import base64
-import inspect
-import json
 import logging
 import time
 from collections.abc import AsyncIterator, Callable, Iterable
 from contextlib import asynccontextmanager
 from contextvars import ContextVar
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Annotated, Any, Literal, TypeVar
+from typing import TYPE_CHECKING, Any, Literal, TypeVar
 
 import anyio
 import anyio.from_thread
@@ -33,35 +30,29 @@ from mcp.server.mcpserver.exceptions import ResourceError, ToolError, Unexpected
 from mcp_types import (
     CallToolResult,
     EmptyResult,
-    ImageContent,
     InputRequiredResult,
     SetLevelRequestParams,
     SubscribeRequestParams,
-    TextContent,
     UnsubscribeRequestParams,
 )
-from pydantic import BaseModel, ValidationError
+from pydantic import ValidationError
 
 from robocog.server.clients import (
-    WORLD_RESOURCES,
     Clients,
-    LogEntry,
     collecting,
-    connection_of,
     install_log_handlers,
 )
 from robocog.server.config import AccessConfig, SessionConfig
 from robocog.server.consent import ConsentGate
 from robocog.server.events import EventBus
 from robocog.server.fleet import DEFAULT_OPEN_NAMESPACES, Fleet, Robot
-from robocog.server.ownership import Driver, DriverIds, RobotBusy
+from robocog.server.ownership import Driver, DriverIds
 from robocog.server.resources import Current, register_completions, register_prompts, register_resources
+from robocog.server.tool_wiring import Access, invalid_arguments, register_tool
 from robocog.server.tools import CONTROL_TOOLS, ROBOT_TOOLS
-from robocog.server.tools.base import Caller, ProgressFn, Tool
 from robocog.shared import __version__
 from robocog.shared.errors import ConfigError
-from robocog.shared.protocol import CONTRACT_VERSION, DRIVER_META_KEY, MODEL_META_KEY
-from robocog.shared.results import WithImage
+from robocog.shared.protocol import CONTRACT_VERSION, DRIVER_META_KEY
 
 if TYPE_CHECKING:
     from robocog.server.session import RobotSession
@@ -147,128 +138,6 @@ def _fleet_origin() -> str:
     return str(int(number) - 1) if number.isdigit() and int(number) > 0 else "0"
 
 
-def _tool_result(result: BaseModel) -> CallToolResult:
-    """Structured content plus the same JSON as text; a failed action is marked as a tool error. A
-    result with a picture attached (`WithImage`, e.g. look's) also gets it as an image content block
-    after the text: the JSON only describes it (`image`: type and size), never carries the bytes."""
-    data = result.model_dump(mode="json")
-    content: list[TextContent | ImageContent] = [TextContent(type="text", text=json.dumps(data, ensure_ascii=False))]
-    if isinstance(result, WithImage) and result.image is not None and result.image_bytes is not None:
-        encoded = base64.b64encode(result.image_bytes).decode("ascii")
-        content.append(ImageContent(type="image", data=encoded, mime_type=result.image.mime_type))
-    return CallToolResult(content=content, structured_content=data, is_error=data.get("status") == "failure")
-
-
-def _progress(ctx: Context[AppState]) -> ProgressFn:
-    """A progress callback for the worker thread that sends MCP progress notifications."""
-
-    def report(done: float, total: float, message: str) -> None:
-        anyio.from_thread.run(ctx.report_progress, done, total, message)
-
-    return report
-
-
-def _model_label(ctx: Context[AppState]) -> str | None:
-    meta = ctx.request_context.meta or {}
-    label = meta.get(MODEL_META_KEY)
-    if isinstance(label, str) and label:
-        return label
-    params = ctx.request_context.session.client_params
-    if params is not None:
-        return f"{params.client_info.name}/{params.client_info.version}"
-    return None
-
-
-@dataclass
-class Access:
-    """Who may act: the consent gate when actions need the user's permission (`--confirm-actions`).
-    Whether the caller may act on its robot at all is the robot's lease (one driver at a time)."""
-
-    gate: ConsentGate | None = None
-
-    def asks_consent(self, tool: Tool[Any]) -> bool:
-        return self.gate is not None and tool.kind == "robot" and tool.changes_world
-
-
-def register_tool(mcp: MCPServer[AppState], tool: Tool[Any], access: Access) -> None:
-    """Publish `tool`: its arguments become the input schema, its result model the output schema.
-
-    The handler the SDK sees has the tool's own parameters (keyword-only) plus the request context;
-    the call runs on the session, serialised, and a result with status "failure" is a tool error.
-    A tool that is not read-only needs the robot's lease (see `ownership.py`); with a consent gate,
-    an action first asks the user (see `consent.py`).
-    """
-    exclusive = not tool.annotations.read_only_hint
-    gate = access.gate if access.asks_consent(tool) else None
-
-    async def handler(ctx: Context[AppState], **arguments: Any) -> CallToolResult:
-        events = ctx.request_context.lifespan_context.events
-        if events is None:
-            return await act(ctx, arguments)
-        shown = {k: v for k, v in arguments.items() if k != "consent"}
-        return await events.observe(tool.name, shown, lambda: act(ctx, arguments), client=_model_label(ctx))
-
-    async def act(ctx: Context[AppState], arguments: dict[str, Any]) -> CallToolResult:
-        state = ctx.request_context.lifespan_context
-        if gate is not None:
-            gate.check(ctx, tool, arguments.pop("consent"))
-        # A call that needs a robot of its own (one that acts, or any on a fleet) gets a sessionless
-        # client a driver id when it sends none; the id goes back in the result's _meta.
-        driver = Driver.of(ctx.request_context, state.ids, issue=exclusive or not state.fleet.shared)
-        try:
-            result = await run(ctx, state, driver, arguments)
-        except ToolError as exc:
-            if driver is None or not driver.issued_now:
-                raise
-            failed = CallToolResult(content=[TextContent(type="text", text=str(exc))], is_error=True)
-            failed.meta = {DRIVER_META_KEY: driver.driver_id}
-            return failed
-        if driver is not None and driver.issued_now:
-            result.meta = {**(result.meta or {}), DRIVER_META_KEY: driver.driver_id}
-        return result
-
-    async def run(
-        ctx: Context[AppState], state: AppState, driver: Driver | None, arguments: dict[str, Any]
-    ) -> CallToolResult:
-        robot = await state.robot(ctx.request_context, driver)
-        # A watcher's read-only calls on a shared robot are not the driver's episode's calls.
-        counts = not state.fleet.shared or robot.lease.holds(driver)
-        if exclusive:
-            assert driver is not None
-            try:
-                robot.lease.claim(driver)
-            except RobotBusy as exc:
-                raise ToolError(str(exc)) from None
-        caller = Caller(progress=_progress(ctx), model=_model_label(ctx), counts=counts)
-        records: list[LogEntry] = []
-        try:
-            with collecting(records.append):
-                result = await state.run_on(robot, lambda session: session.invoke(tool, arguments, caller))
-        finally:
-            await state.clients.send(ctx.request_context, records)
-        if tool.changes_world and getattr(result, "status", None) != "failure":
-            if state.fleet.shared:
-                await state.clients.world_changed()
-                for uri in WORLD_RESOURCES:  # clients on 2026-07-28 and later listen on subscriptions/listen
-                    await ctx.notify_resource_updated(uri)
-            else:  # a fleet's robots are private: only the caller's own subscriptions hear of it
-                await state.clients.world_changed(only=connection_of(ctx.request_context))
-        return _tool_result(result)
-
-    keyword = inspect.Parameter.KEYWORD_ONLY
-    parameters = [p.replace(kind=keyword) for p in tool.parameters]
-    context = inspect.Parameter("ctx", keyword, annotation=Context[AppState])
-    extra = [gate.parameter(tool)] if gate is not None else []
-    returns = Annotated[CallToolResult, tool.result_type]
-    handler.__signature__ = inspect.Signature([*parameters, context, *extra], return_annotation=returns)  # type: ignore[attr-defined]
-    handler.__annotations__ = {p.name: p.annotation for p in [*parameters, *extra]} | {
-        "ctx": Context[AppState],
-        "return": returns,
-    }
-    handler.__name__ = handler.__qualname__ = tool.name
-    mcp.add_tool(handler, name=tool.name, title=tool.title, description=tool.description, annotations=tool.annotations)
-
-
 class RobocogServer(MCPServer[AppState]):
     """MCPServer, with argument errors a model can read: "Invalid arguments for move_to: location:
     Input should be a valid string (got 5)." instead of pydantic's report (its model name, its
@@ -297,21 +166,6 @@ class RobocogServer(MCPServer[AppState]):
             raise
         finally:
             _REQUEST.reset(token)
-
-
-def invalid_arguments(tool: str, error: ValidationError) -> str:
-    """One line per problem: the argument, what is wrong, and (for a wrong type) a glimpse of the value."""
-    problems = []
-    for item in error.errors(include_url=False):
-        where = ".".join(str(part) for part in item["loc"]) or "arguments"
-        got = "" if item["type"] in ("missing", "text_too_long") else f" (got {_glimpse(item.get('input'))})"
-        problems.append(f"{where}: {item['msg']}{got}")
-    return f"Invalid arguments for {tool}: {'; '.join(problems)}. Its input schema says what each argument takes."
-
-
-def _glimpse(value: object) -> str:
-    text = json.dumps(value, ensure_ascii=False, default=str)
-    return text if len(text) <= 40 else text[:37] + "..."
 
 
 def register_logging_and_subscriptions(mcp: MCPServer[AppState]) -> None:

@@ -24,22 +24,16 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import hmac
-import json
 import logging
 import os
-import secrets
 import subprocess
-import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from robocog.server.config import DEFAULT_SESSION_IDLE_S, DRIVER_SECRET_ENV
-from robocog.shared.errors import ConfigError
-from robocog.shared.process import PARENT_ENV, die_with_parent, free_port, wait_listening
-from robocog.shared.protocol import DRIVER_META_KEY
+from robocog.server.config import DEFAULT_SESSION_IDLE_S
+from robocog.server.router_wire import driver_name, error_response, is_stopped, parse_message, say
 
 if TYPE_CHECKING:
     import httpx2
@@ -48,22 +42,8 @@ if TYPE_CHECKING:
 
 logger = logging.getLogger("robocog.server.router")
 
-#: Flags of the public server that its fleet processes get in another form (or not at all), and
-#: whether each takes a value.
-_OWN_FLAGS = {
-    "--transport": True,
-    "--host": True,
-    "--port": True,
-    "--processes": True,
-    "--robots": True,
-    "--max-sessions": True,
-    "--auth-token": True,
-    "--data-dir": True,
-    "--memory-url": True,
-}
 #: Response headers that belong to one hop, not to the message.
 _HOP_HEADERS = {"connection", "keep-alive", "transfer-encoding", "te", "trailer", "upgrade"}
-START_TIMEOUT_S = 90.0
 #: How long a session that only initialized counts toward its process's robots (a burst of new
 #: sessions spreads over the processes; a client that vanished after initialize stops counting).
 INIT_ONLY_S = 30.0
@@ -75,27 +55,6 @@ ANSWER_TIMEOUT_S = 60.0
 _HANDSHAKE = {"initialize", "notifications/initialized", "ping"}
 #: The largest request body passed on (the SDK's own limit for streamable HTTP).
 MAX_BODY = 4 * 1024 * 1024
-
-
-def shares(robots: int, processes: int) -> list[int]:
-    """`robots` spread over `processes` as evenly as can be (the first get one more)."""
-    return [robots // processes + (1 if i < robots % processes else 0) for i in range(processes)]
-
-
-def passed_on(argv: Sequence[str]) -> list[str]:
-    """The public server's arguments that its fleet processes get as they are."""
-    out: list[str] = []
-    skip = False
-    for arg in argv:
-        if skip:
-            skip = False
-            continue
-        name = arg.split("=", 1)[0]
-        if name in _OWN_FLAGS:
-            skip = _OWN_FLAGS[name] and "=" not in arg
-            continue
-        out.append(arg)
-    return out
 
 
 @dataclass
@@ -163,9 +122,9 @@ class Router:
         gives one (a sessionless client keeps its robot), else the least loaded of those serving
         (a new session)."""
         self._forget_idle()
-        message = body if isinstance(body, dict) else _message(body)
+        message = body if isinstance(body, dict) else parse_message(body)
         alive = [u for u in self.upstreams if u.serving()] or self.upstreams
-        driver = _driver_name(message)
+        driver = driver_name(message)
         if driver is not None:
             origin = driver.split(".", 1)[0]  # an issued id names its process (server/ownership.py)
             if origin.isdigit() and int(origin) < len(self.upstreams):
@@ -205,7 +164,7 @@ class Router:
                     continue
                 code = proc.poll()
                 if code is None:
-                    stopped = _is_stopped(proc.pid)
+                    stopped = is_stopped(proc.pid)
                     if stopped != upstream.stopped:
                         upstream.stopped = stopped
                         what = (
@@ -213,7 +172,7 @@ class Router:
                             if stopped
                             else "runs again"
                         )
-                        _say(f"fleet process {upstream.index + 1} (pid {proc.pid}) {what}")
+                        say(f"fleet process {upstream.index + 1} (pid {proc.pid}) {what}")
                     continue
                 if self.restart is None:
                     continue
@@ -225,7 +184,7 @@ class Router:
                     self.lost[sid] = upstream.index + 1
                     while len(self.lost) > 10_000:  # bounded: the oldest are forgotten
                         self.lost.pop(next(iter(self.lost)))
-                _say(
+                say(
                     f"fleet process {upstream.index + 1} (pid {proc.pid}) died ({how}); restarting it on port "
                     f"{upstream.port} with the same memory"
                 )
@@ -233,10 +192,10 @@ class Router:
                 try:
                     await anyio.to_thread.run_sync(self.restart, upstream)
                 except Exception as exc:  # reported; tried again on the next look
-                    _say(f"fleet process {upstream.index + 1} could not be restarted: {exc}")
+                    say(f"fleet process {upstream.index + 1} could not be restarted: {exc}")
                 else:
                     assert upstream.proc is not None
-                    _say(
+                    say(
                         f"fleet process {upstream.index + 1} is back (pid {upstream.proc.pid}, "
                         f"{time.monotonic() - started:.1f} s): all {sum(u.robots for u in self.upstreams)} robots "
                         "serve again"
@@ -264,11 +223,11 @@ class Router:
         async for chunk in request.stream():
             body += chunk
             if len(body) > MAX_BODY:
-                return _error(413, f"robocog-server: a request body of more than {MAX_BODY} bytes is refused")
+                return error_response(413, f"robocog-server: a request body of more than {MAX_BODY} bytes is refused")
         try:
-            message = _message(bytes(body))
+            message = parse_message(bytes(body))
         except RecursionError:
-            return _error(400, "Parse error: the JSON is nested too deeply", code=-32700)
+            return error_response(400, "Parse error: the JSON is nested too deeply", code=-32700)
         method = message.get("method")
         sid = request.headers.get("mcp-session-id")
         if sid is not None:
@@ -276,13 +235,13 @@ class Router:
             if upstream is None:
                 died = self.lost.pop(sid, None)
                 if died is not None:
-                    return _error(
+                    return error_response(
                         404,
                         f"Session not found: robocog-server's fleet process {died} died and was restarted; its "
                         "sessions are gone: start a new session (initialize) and begin the task again",
                         code=-32600,
                     )
-                return _error(404, "Session not found", code=-32600)
+                return error_response(404, "Session not found", code=-32600)
             if method is not None and method not in _HANDSHAKE:
                 upstream.active.add(sid)
             return await self._forward(request, bytes(body), upstream, sid)
@@ -290,7 +249,7 @@ class Router:
         if method != "initialize":
             return await self._forward(request, bytes(body), upstream, None)
         if upstream.load() >= 1 or not upstream.serving():  # every serving process's robots are taken
-            return _error(503, self._full())
+            return error_response(503, self._full())
         upstream.pending += 1  # counted at once: a burst of new sessions spreads over the processes
         try:
             return await self._forward(request, bytes(body), upstream, None)
@@ -347,7 +306,9 @@ class Router:
                 if isinstance(exc, TimeoutError)
                 else f"is not answering ({type(exc).__name__})"
             )
-            return _error(502, f"robocog-server: fleet process {upstream.index + 1} {why}; retry in a few seconds")
+            return error_response(
+                502, f"robocog-server: fleet process {upstream.index + 1} {why}; retry in a few seconds"
+            )
         new_sid = response.headers.get("mcp-session-id")
         if sid is None and new_sid and response.status_code < 400:
             self.by_session[new_sid] = upstream
@@ -400,183 +361,4 @@ class Router:
         )
 
 
-def _error(status: int, message: str, *, code: int = -32603) -> Response:
-    from starlette.responses import JSONResponse
-
-    return JSONResponse({"jsonrpc": "2.0", "id": None, "error": {"code": code, "message": message}}, status)
-
-
-def _message(body: bytes) -> dict[str, Any]:
-    """The JSON-RPC message of a request body ({} when it is none, or not one message); a body
-    nested too deeply raises RecursionError (the caller answers it with a parse error)."""
-    if not body:
-        return {}
-    try:
-        message = json.loads(body)
-    except ValueError:
-        return {}
-    return message if isinstance(message, dict) else {}
-
-
-def _driver_name(message: dict[str, Any]) -> str | None:
-    """`params._meta["robocog/driver"]` of a JSON-RPC request, if it names one."""
-    params = message.get("params")
-    meta = params.get("_meta") if isinstance(params, dict) else None
-    name = meta.get(DRIVER_META_KEY) if isinstance(meta, dict) else None
-    return name if isinstance(name, str) and name else None
-
-
-def _say(line: str) -> None:
-    """One line on the router's stderr, where the processes' logs go too."""
-    print(f"robocog-server: {line}", file=sys.stderr, flush=True)
-
-
-def _is_stopped(pid: int) -> bool:
-    """Whether process `pid` is stopped (SIGSTOP), as Linux's /proc says; False where it cannot tell."""
-    try:
-        stat = Path(f"/proc/{pid}/stat").read_text()
-    except OSError:
-        return False
-    return stat.rsplit(")", 1)[-1].split()[0] in ("T", "t")
-
-
 # --- starting and stopping the processes ---------------------------------------------------------
-
-
-class Fleet:
-    """The fleet processes (and the shared Chroma server) behind one router; started on entry."""
-
-    def __init__(
-        self,
-        argv: Sequence[str],
-        *,
-        robots: int,
-        processes: int,
-        allowed_hosts: Sequence[str],
-        auth_token: str | None,
-        data_dir: Path | None,
-        memory_url: str | None,
-        session_idle_s: float,
-    ) -> None:
-        if processes > robots:
-            raise ConfigError(f"--processes {processes} is more than --robots {robots}: a process hosts robots")
-        self.upstreams = [Upstream(i, free_port(), n) for i, n in enumerate(shares(robots, processes))]
-        self.argv = passed_on(argv)
-        self.allowed_hosts = list(allowed_hosts)
-        self.auth_token = auth_token
-        self.data_dir = data_dir
-        self.memory_url = memory_url
-        self.session_idle_s = session_idle_s
-        self.chroma: subprocess.Popen[bytes] | None = None
-        self.driver_secret = secrets.token_hex(32)
-
-    def __enter__(self) -> Router:
-        try:
-            self.start()
-        except BaseException:
-            self.stop()
-            raise
-        return Router(self.upstreams, idle_s=self.session_idle_s, token=self.auth_token, restart=self.restart)
-
-    def __exit__(self, *exc: object) -> None:
-        self.stop()
-
-    def start(self) -> None:
-        env = {**os.environ, "ANONYMIZED_TELEMETRY": "False"}
-        env.pop("ROBOCOG_AUTH_TOKEN", None)
-        env[DRIVER_SECRET_ENV] = self.driver_secret  # every process (and a restarted one) checks the same ids
-        if self.auth_token is not None:
-            env["ROBOCOG_AUTH_TOKEN"] = self.auth_token  # not on the command line, where `ps` shows it
-        self.env = env
-        self.started_memory_url = self.memory_url or self._start_chroma(env)
-        for upstream in self.upstreams:
-            self._spawn(upstream)
-        for upstream in self.upstreams:
-            assert upstream.proc is not None
-            _wait_listening(upstream.port, upstream.proc, f"fleet process {upstream.index}")
-
-    def _spawn(self, upstream: Upstream) -> None:
-        args = [
-            *self.argv,  # first: the router's own flags below are the last word
-            *("--transport", "http", "--host", "127.0.0.1", "--port", str(upstream.port)),
-            *("--robots", str(upstream.robots), "--processes", "1"),
-            # room for sessions that only initialized (the router stops counting them after INIT_ONLY_S)
-            *("--max-sessions", str(2 * upstream.robots + 8), "--memory-url", self.started_memory_url),
-            *(f"--allowed-host={h}" for h in self.allowed_hosts),
-        ]
-        upstream.proc = subprocess.Popen(
-            [sys.executable, "-m", "robocog.server.cli", *args],
-            env=self.env
-            | {
-                "ROBOCOG_FLEET_PROCESS": f"{upstream.index + 1}/{len(self.upstreams)}",
-                PARENT_ENV: str(os.getpid()),
-            },
-            stdout=sys.stderr.buffer,
-        )
-
-    def restart(self, upstream: Upstream) -> None:
-        """Start a process that died again: the same port, robots and memory (blocking)."""
-        if upstream.proc is not None and upstream.proc.poll() is None:
-            upstream.proc.kill()
-        if upstream.proc is not None:
-            upstream.proc.wait()
-        self._spawn(upstream)
-        assert upstream.proc is not None
-        _wait_listening(upstream.port, upstream.proc, f"fleet process {upstream.index}")
-
-    def _start_chroma(self, env: dict[str, str]) -> str:
-        from robocog.shared.memory_names import default_data_dir
-
-        path = self.data_dir or default_data_dir()
-        path.mkdir(parents=True, exist_ok=True)
-        port = free_port()
-        chroma = Path(sys.executable).parent / "chroma"
-        command = (
-            [str(chroma)] if chroma.exists() else [sys.executable, "-c", "from chromadb.cli.cli import app; app()"]
-        )
-        self.chroma = subprocess.Popen(
-            [*command, "run", "--path", str(path), "--host", "127.0.0.1", "--port", str(port)],
-            env=env,
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL,
-            preexec_fn=die_with_parent,
-        )
-        _wait_listening(port, self.chroma, "the shared memory (chroma run)")
-        return f"http://127.0.0.1:{port}"
-
-    def stop(self) -> None:
-        procs = [u.proc for u in self.upstreams if u.proc is not None] + ([self.chroma] if self.chroma else [])
-        for proc in procs:
-            if proc.poll() is None:
-                proc.terminate()
-        for proc in procs:
-            try:
-                proc.wait(timeout=30)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait()
-
-
-def _wait_listening(port: int, proc: subprocess.Popen[bytes], what: str) -> None:
-    problem = wait_listening(port, proc, START_TIMEOUT_S)
-    if problem is not None:
-        before = " before it listened (see its log above)" if problem.startswith("exited") else ""
-        raise ConfigError(f"{what} {problem}{before}")
-
-
-def _exit_on_sigterm(signum: int, frame: object) -> None:
-    raise SystemExit(0)
-
-
-def serve(router: Router, host: str, port: int, log_level: str) -> None:
-    """Serve until SIGINT or SIGTERM. uvicorn shuts down gracefully, then raises the signal again
-    for the handler it found: ours raises SystemExit, so the caller's `with Fleet(...)` stops the
-    processes (the default handler would end this process at once and leave them running)."""
-    import signal
-
-    import anyio
-    import uvicorn
-
-    signal.signal(signal.SIGTERM, _exit_on_sigterm)
-    config = uvicorn.Config(router.app(), host=host.strip("[]"), port=port, log_level=log_level.lower(), lifespan="on")
-    anyio.run(uvicorn.Server(config).serve)

@@ -79,6 +79,7 @@ class EvalControls:
         """The ground-truth verdict of `task_id` against the episode's start."""
         return TaskVerdict.model_validate(await self._call("check_task", {"task_id": task_id}))
 
-    async def clear_memory(self) -> int:
-        """Forget every record of the memory namespace; answers how many were removed."""
-        return int((await self._call("clear_memory", {}))["removed"])
+    async def clear_memory(self, *, drop: bool = False) -> int:
+        """Forget every record of the memory namespace (with `drop`, delete the namespace and its files,
+        and go back to the server's own); answers how many records were removed."""
+        return int((await self._call("clear_memory", {"drop": True} if drop else {}))["removed"])

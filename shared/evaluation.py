@@ -48,6 +48,11 @@ class EvalConfig(BaseModel):
     memory_labels: Literal["believed", "verified"] = Field(
         default="believed", description="'believed' (the paper) or 'verified' (the ground truth labels memory)"
     )
+    keep_memory: bool = Field(
+        default=False,
+        description="keep each unit's memory namespace on the server when the unit ends (default: it is dropped, "
+        "records and files, once the unit's last iteration is done: a long-lived fleet serving studies stays small)",
+    )
     workers: int = Field(default=1, ge=1, description="episodes in flight at once (parallel workers)")
     isolation: Literal["process", "fleet"] = Field(
         default="process",

@@ -160,6 +160,8 @@ class Runner:
                     return None
                 if row.true_success:
                     succeeded.add(task_id)
+        if not cfg.keep_memory:  # the unit is done: its namespace (records and files) goes
+            await controls.clear_memory(drop=True)
         return None
 
     @staticmethod

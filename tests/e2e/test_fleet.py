@@ -160,6 +160,24 @@ async def test_a_study_gives_the_same_rows_on_fleets_as_on_server_processes(flee
     assert outcome(read_rows(out)) == outcome(serial)
 
 
+async def test_a_study_drops_its_units_memory_namespaces_unless_told_to_keep_them(
+    fleet_url: str, tmp_path: Path
+) -> None:
+    from robocog.agent.harness.units import unit_namespace
+
+    async def records_left(study: str) -> int:
+        async with session(fleet_url) as client:
+            await call(client, "reset_world", memory_namespace=unit_namespace(study, "scripted/overconfident", 0))
+            return int((await call(client, "clear_memory"))["removed"])
+
+    one = STUDY | {"trials": 1, "memory_iterations": 1, "tasks": ["T1"]}
+    await run_eval(EvalConfig.model_validate(one | {"name": "dropped"}), tmp_path / "a.jsonl", urls=[fleet_url])
+    assert await records_left("dropped") == 0
+    kept = one | {"name": "kept", "keep_memory": True}
+    await run_eval(EvalConfig.model_validate(kept), tmp_path / "b.jsonl", urls=[fleet_url])
+    assert await records_left("kept") == 1  # T1's report
+
+
 # --- the pool's bookkeeping, in process ---------------------------------------------------------------
 
 
@@ -234,7 +252,8 @@ async def test_a_fleet_in_two_processes_behind_one_address(tmp_path: Path) -> No
 
 
 def test_the_router_splits_robots_and_arguments_and_keeps_a_sessionless_driver_in_place() -> None:
-    from robocog.server.router import Router, Upstream, passed_on, shares
+    from robocog.server.router import Router, Upstream
+    from robocog.server.router_processes import passed_on, shares
 
     assert shares(5, 2) == [3, 2] and shares(4, 4) == [1, 1, 1, 1]
     argv = ["--transport", "http", "--port=9", "--robots", "8", "--processes", "2", "--profile", "eval", "--seed", "3"]

@@ -102,7 +102,7 @@ async def test_on_one_robot_the_second_default_client_is_refused_until_the_first
 
 
 def test_the_contract_publishes_the_rule_and_the_checker_sees_it_go() -> None:
-    from robocog.agent.contract_diff import compare_contracts
+    from robocog.agent.contract.diff import compare_contracts
     from robocog.shared.protocol import CONTRACT_VERSION
     from tests.helpers import CONTRACT_DIR
 

@@ -209,7 +209,7 @@ def test_run_passes_view_to_the_server_it_spawns() -> None:
 
 
 def test_server_view_flag() -> None:
-    from robocog.server.cli import build_parser
+    from robocog.server.cli_options import build_parser
 
     parser = build_parser()
     assert parser.parse_args([]).view is None
