@@ -18,17 +18,10 @@ if TYPE_CHECKING:
 
 def _port_taken(host: str, port: int) -> str | None:
     """Why `host:port` cannot be listened on (in use, or not this machine's), or None (port 0: free)."""
-    import socket
+    from robocog.shared.process import probe_bind
 
-    if not port:
-        return None
-    with socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET) as probe:
-        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        try:
-            probe.bind((host, port))
-        except OSError as exc:
-            return f"cannot listen on {host}:{port}: {exc.strerror or exc}; give another port"
-    return None
+    why = probe_bind(host, port)[1] if port else None
+    return f"cannot listen on {host}:{port}: {why}; give another port" if why else None
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -46,6 +46,18 @@ def free_port() -> int:
         return int(s.getsockname()[1])
 
 
+def probe_bind(host: str, port: int) -> tuple[int, str | None]:
+    """Whether a server could listen on `host:port` now: (the port, a free one for 0; None), or (`port`,
+    why not: in use, or not this machine's address), from a probe socket bound and closed at once."""
+    with socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET) as probe:
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            probe.bind((host, port))
+        except OSError as exc:
+            return port, exc.strerror or str(exc)
+        return int(probe.getsockname()[1]), None
+
+
 def wait_listening(port: int, proc: subprocess.Popen[bytes], timeout_s: float) -> str | None:
     """Wait until `proc` listens on loopback `port`: None once it does, else why it never will
     ("exited with status N", "did not listen within T s")."""

@@ -9,13 +9,13 @@ from __future__ import annotations
 import difflib
 import os
 import re
-import socket
 import sqlite3
 from collections.abc import Iterable, Sequence
 from functools import cache
 from pathlib import Path
 
 from robocog.shared.errors import ConfigError
+from robocog.shared.process import probe_bind
 
 #: A word a user means as a task id, not as an instruction: one token with a digit and no spaces
 #: (T1, t1, T3, task2, dev-put_away-000). A free-text instruction has spaces or no digit.
@@ -102,16 +102,12 @@ def check_model(model: str, api_base: str | None, api_key: str | None = None) ->
 
 def free_viewer_port(port: int) -> int:
     """The live viewer's port: `port` if nothing listens on it, a free one for 0; `ConfigError` if taken."""
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
-        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        try:
-            sock.bind(("127.0.0.1", port))
-        except OSError as exc:
-            raise ConfigError(
-                f"--view {port}: 127.0.0.1:{port} is already in use ({exc.strerror or exc}); "
-                "give another port, or --view 0 for a free one"
-            ) from None
-        return int(sock.getsockname()[1])
+    got, why = probe_bind("127.0.0.1", port)
+    if why:
+        raise ConfigError(
+            f"--view {port}: 127.0.0.1:{port} is already in use ({why}); give another port, or --view 0 for a free one"
+        )
+    return got
 
 
 def memory_dir(data_dir: str | None) -> Path:
