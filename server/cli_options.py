@@ -66,7 +66,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="also serve the live viewer (a web page: the map, the camera, the tool calls as they happen) on "
         "http://127.0.0.1:PORT/ (default port: 8766; 0 picks a free one), with any transport",
     )
-    a = p.add_argument_group("access (HTTP: see the README's 'Security' section)")
+    a = p.add_argument_group("access (HTTP: see the docs' Security page, docs/security.md)")
     a.add_argument(
         "--auth-token",
         default=os.environ.get("ROBOCOG_AUTH_TOKEN") or None,
