@@ -156,7 +156,7 @@ class AttemptRow(BaseModel):
         default=None, description="robot actions (move_to, grab, place) in the planner's optimal plan, when known"
     )
     errors: dict[str, int] = Field(
-        default={}, description="the error taxonomy's counts from the attempt's trace (agent/taxonomy.py)"
+        default={}, description="the error taxonomy's counts from the attempt's trace (agent/analysis/taxonomy.py)"
     )
     robot_actions: int | None = Field(
         default=None, description="the robot actions (move_to, grab, place calls) in the trace; efficiency's numerator"

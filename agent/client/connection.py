@@ -102,6 +102,33 @@ class Robot:
         return next((tid for tid, text in self.tasks.items() if " ".join(text.split()).casefold() == wanted), None)
 
 
+def spawn_env(extra: dict[str, str] | None = None) -> dict[str, str]:
+    """The environment of a server this client spawns: no telemetry, the caller's `ROBOCOG_*`
+    settings, then `extra`."""
+    return {
+        "ANONYMIZED_TELEMETRY": "False",
+        **{k: v for k, v in os.environ.items() if k.startswith("ROBOCOG_")},
+        **(extra or {}),
+    }
+
+
+class ServerLog:
+    """A spawned server's stderr, in a temporary file (its start-up chatter stays off the terminal):
+    its last lines quoted when the server fails; the file is deleted when closed."""
+
+    def __init__(self, prefix: str) -> None:
+        self.file: IO[str] = tempfile.NamedTemporaryFile("w+", prefix=prefix, suffix=".log", delete=False)  # noqa: SIM115
+
+    def tail(self, lines: int) -> str:
+        """The last `lines` lines written so far."""
+        self.file.flush()
+        return "\n".join(Path(self.file.name).read_text(encoding="utf-8", errors="replace").splitlines()[-lines:])
+
+    def close(self) -> None:
+        self.file.close()
+        Path(self.file.name).unlink(missing_ok=True)
+
+
 def leaf_message(exc: BaseException) -> str:
     """The innermost message of an exception (task groups wrap the real one)."""
     while isinstance(exc, BaseExceptionGroup) and exc.exceptions:
@@ -118,33 +145,26 @@ async def connect(spec: ServerSpec) -> AsyncIterator[Robot]:
     """
     from mcp.client.stdio import stdio_client
 
-    log: IO[str] | None = None
+    log: ServerLog | None = None
     if spec.url:
         target: Any = _http_transport(spec.url, spec.auth_token)
     else:
-        env = {
-            "ANONYMIZED_TELEMETRY": "False",
-            **{k: v for k, v in os.environ.items() if k.startswith("ROBOCOG_")},
-            **spec.env,
-        }
         command, *args = spec.command
-        params = StdioServerParameters(command=command, args=[*args, *spec.extra_args], env=env)
-        log = tempfile.NamedTemporaryFile("w+", prefix="robocog-server-", suffix=".log", delete=False)  # noqa: SIM115
-        target = stdio_client(params, errlog=cast(TextIO, log))  # a text file, in a wrapper that deletes it
+        params = StdioServerParameters(command=command, args=[*args, *spec.extra_args], env=spawn_env(spec.env))
+        log = ServerLog("robocog-server-")
+        target = stdio_client(params, errlog=cast(TextIO, log.file))  # a text file, in a wrapper that deletes it
     try:
         async with _session(target, spec) as robot:
             yield robot
     except Exception as exc:
         if log is None or isinstance(exc, ServerConnectionError):
             raise
-        log.flush()
-        tail = "\n".join(Path(log.name).read_text(encoding="utf-8", errors="replace").splitlines()[-15:])
+        tail = log.tail(15)
         where = f"; the end of its log:\n{tail}" if tail.strip() else " (it wrote nothing to stderr)"
         raise ServerConnectionError(f"the robot server `{spec.label}` failed: {leaf_message(exc)}{where}") from exc
     finally:
         if log is not None:
             log.close()
-            Path(log.name).unlink(missing_ok=True)
 
 
 @asynccontextmanager
