@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from robocog.agent.view.serve import _trace_path, attempt_json, report_html, trace_events
+from robocog.agent.view.serve import attempt_json, report_html, trace_events, trace_path
 from robocog.shared.web import VIEWER_STATIC
 
 #: Where the page reads a bundle's data: `window.ROBOCOG_BUNDLE` (set by data/study.js).
@@ -93,7 +93,7 @@ def write_bundle(results: Path, out: Path, *, title: str | None = None) -> Bundl
     attempts = [attempt_json(i, row, base) for i, row in enumerate(rows)]
     traces = pictures = 0
     for i, row in enumerate(rows):
-        path = _trace_path(row, base)
+        path = trace_path(row, base)
         if path is None or not path.is_file():
             continue
         events = trace_events(path)

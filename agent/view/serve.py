@@ -50,7 +50,7 @@ def report_html(markdown_text: str, prefix: str = "/report/") -> str:
 
 
 def attempt_json(index: int, row: AttemptRow, results_dir: Path) -> dict[str, Any]:
-    trace = _trace_path(row, results_dir)
+    trace = trace_path(row, results_dir)
     return {
         "index": index,
         "model": row.model,
@@ -76,7 +76,7 @@ def attempt_json(index: int, row: AttemptRow, results_dir: Path) -> dict[str, An
     }
 
 
-def _trace_path(row: AttemptRow, results_dir: Path) -> Path | None:
+def trace_path(row: AttemptRow, results_dir: Path) -> Path | None:
     if not row.trace:
         return None
     path = (results_dir / row.trace).resolve()
@@ -161,7 +161,7 @@ class ResultsViewer:
         index = request.path_params["index"]
         if not 0 <= index < len(self.rows):
             return None
-        path = _trace_path(self.rows[index], self.dir)
+        path = trace_path(self.rows[index], self.dir)
         return path if path is not None and path.is_file() else None
 
     async def trace(self, request: Request) -> Response:
