@@ -22,9 +22,9 @@ from tests.helpers import ROOT
 CONFIG = ROOT / "assets" / "eval" / "scripted.yaml"
 
 
-def eval_study(out: Path, *flags: str) -> Path:
-    """A small study of the scripted models, written by `robocog eval` (its traces beside it)."""
-    command = [sys.executable, "-m", "robocog.agent.cli", "eval", str(CONFIG), "--out", str(out), "--quiet", *flags]
+def eval_study(out: Path, *flags: str, config: Path = CONFIG) -> Path:
+    """A small study (by default of the scripted models), written by `robocog eval` (its traces beside it)."""
+    command = [sys.executable, "-m", "robocog.agent.cli", "eval", str(config), "--out", str(out), "--quiet", *flags]
     done = subprocess.run(command, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     return out
