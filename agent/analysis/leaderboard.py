@@ -254,7 +254,7 @@ def draw_success_cost(b: Board, out: Path) -> str:
         ax.errorbar(
             [x],
             [o.success],
-            yerr=[[o.success - low], [high - o.success]],
+            yerr=[[max(0.0, o.success - low)], [max(0.0, high - o.success)]],
             fmt="o" if e.verification.verified else "s",
             color=TAB10[i % len(TAB10)],
             capsize=3,
