@@ -23,7 +23,7 @@ from mcp_types import Tool
 
 from robocog.shared import __version__
 from robocog.shared.errors import ServerConnectionError
-from robocog.shared.protocol import FLEET_FULL
+from robocog.shared.protocol import CONTRACT_VERSION_PATTERN, FLEET_FULL
 
 
 def default_server_command() -> list[str]:
@@ -66,6 +66,8 @@ class Robot:
     tasks: dict[str, str]  # task id -> prompt (from robocog://tasks)
     label: str
     requires: dict[str, list[str]] = field(default_factory=dict)  # task id -> tasks that must succeed first
+    catalogue: dict[str, dict[str, Any]] = field(default_factory=dict)  # task id -> its robocog://tasks entry
+    contract: str | None = None  # the MCP contract version the server announces in its instructions
 
     _prompts: dict[str, str] = field(default_factory=dict)
 
@@ -205,13 +207,23 @@ async def _session(target: Any, spec: ServerSpec) -> AsyncIterator[Robot]:
         system_prompt = "\n".join(getattr(m.content, "text", "") for m in prompt.messages)
         tasks: dict[str, str] = {}
         requires: dict[str, list[str]] = {}
+        entries: dict[str, dict[str, Any]] = {}
         try:
             catalogue = await client.read_resource("robocog://tasks")
             for item in json.loads(getattr(catalogue.contents[0], "text", "[]")):
                 tasks[item["id"]] = item["prompt"]
                 requires[item["id"]] = [str(r) for r in item.get("requires") or []]
+                entries[item["id"]] = item
         except Exception:  # a server without the catalogue can still be driven
-            tasks, requires = {}, {}
+            tasks, requires, entries = {}, {}, {}
+        announced = CONTRACT_VERSION_PATTERN.search(client.instructions or "")
         yield Robot(
-            client=client, tools=tools, system_prompt=system_prompt, tasks=tasks, label=spec.label, requires=requires
+            client=client,
+            tools=tools,
+            system_prompt=system_prompt,
+            tasks=tasks,
+            label=spec.label,
+            requires=requires,
+            catalogue=entries,
+            contract=announced.group(1) if announced else None,
         )

@@ -25,7 +25,8 @@ from robocog.agent.client.settings import AgentSettings
 from robocog.agent.client.trace_sinks import Trace
 from robocog.agent.study_protocols import DESCRIPTION_URI, PROTOCOLS, EvalProtocol
 from robocog.shared.errors import ModelServiceError, ServerConnectionError
-from robocog.shared.protocol import CONTROL_TOOLS, FLEET_FULL, MODEL_META_KEY, VISION_TOOLS
+from robocog.shared.protocol import FLEET_FULL, MODEL_META_KEY
+from robocog.shared.provenance import function_definition, offered
 from robocog.shared.trace import ModelTurn, Reinvoked, RunFinished, RunStarted, ToolCall, ToolResult, Verdict
 
 Outcome = Literal["ended", "stopped", "error"]
@@ -63,16 +64,9 @@ def function_definitions(tools: list[Tool], *, vision: bool = False) -> list[dic
     """MCP tool schemas as OpenAI / LiteLLM function definitions: never the controls, and the camera
     only with `vision` (a text-only model would get nothing from it)."""
     return [
-        {
-            "type": "function",
-            "function": {
-                "name": t.name,
-                "description": t.description or t.title or t.name,
-                "parameters": t.input_schema or {"type": "object", "properties": {}},
-            },
-        }
+        function_definition(t.name, t.description or t.title, t.input_schema)
         for t in tools
-        if t.name not in CONTROL_TOOLS and (vision or t.name not in VISION_TOOLS)
+        if offered(t.name, vision=vision)
     ]
 
 

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import re
 import sys
 import tempfile
 from collections.abc import AsyncIterator, Awaitable, Callable
@@ -28,12 +27,13 @@ from typing import TYPE_CHECKING, Any, TextIO, cast
 
 from robocog.agent.contract.diff import EXIT_OK, EXIT_UNREACHABLE, SECTIONS, Change, compare_contracts, report
 from robocog.shared.errors import ServerConnectionError
+from robocog.shared.protocol import CONTRACT_VERSION_PATTERN
 
 if TYPE_CHECKING:  # `robocog --help` builds this parser: the MCP SDK is imported only to connect
     from mcp import Client
 
 #: The contract version in a server's instructions: "MCP contract 1.0", "contract 2.3".
-VERSION_PATTERN = re.compile(r"\bcontract\s+v?(\d+(?:\.\d+)+)\b", re.IGNORECASE)
+VERSION_PATTERN = CONTRACT_VERSION_PATTERN
 
 
 def shipped_contract_path(profile: str = "default") -> Path:

@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 FIGURES = Path(__file__).resolve().parents[1] / "figures.json"
-REFERENCE = re.compile(r"\[\[fig:([A-Za-z0-9_.\-]+)\]\]")
+REFERENCE = re.compile(r"\[\[fig:([A-Za-z0-9_\-]+\.[A-Za-z0-9_.\-]+)\]\]")
 ALL = "<!-- figures:all -->"
 
 

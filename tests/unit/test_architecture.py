@@ -83,7 +83,8 @@ def test_reading_results_imports_neither_mcp_nor_litellm_nor_pybullet() -> None:
         "import robocog.agent.cli.main as cli\n"
         "cli.build_parser()\n"
         "import robocog.agent.cli.report, robocog.agent.analysis.report, robocog.agent.analysis.results_file\n"
-        "import robocog.agent.view.serve\n"
+        "import robocog.agent.view.serve, robocog.agent.view.bundle, robocog.agent.view.leaderboard_page\n"
+        "import robocog.agent.cli.leaderboard, robocog.agent.cli.submit, robocog.agent.analysis.submission\n"
         "heavy = ('mcp', 'litellm', 'pybullet', 'chromadb')\n"
         "print(sorted({m.split('.')[0] for m in sys.modules if m.split('.')[0] in heavy}))\n"
     )

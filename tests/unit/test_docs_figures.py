@@ -46,7 +46,7 @@ def test_every_figure_a_page_names_is_recorded() -> None:
     named = {
         key
         for page in (REPO / "docs").glob("*.md")
-        for key in re.findall(r"\[\[fig:([A-Za-z0-9_.\-]+)\]\]", page.read_text(encoding="utf-8"))
+        for key in re.findall(r"\[\[fig:([A-Za-z0-9_\-]+\.[A-Za-z0-9_.\-]+)\]\]", page.read_text(encoding="utf-8"))
     }
     assert named, "the figures page names its figures"
     assert named <= set(recorded), sorted(named - set(recorded))
