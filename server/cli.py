@@ -25,9 +25,10 @@ def _port_taken(host: str, port: int) -> str | None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
-    from robocog.shared.process import follow_parent
+    from robocog.shared.process import follow_parent, limit_malloc_arenas
 
+    limit_malloc_arenas()  # before any thread: a long-lived server's memory stays flat
+    args = build_parser().parse_args(argv)
     follow_parent()  # a fleet process of a router or a harness ends with it
     from robocog.server.config import AccessConfig
     from robocog.server.http import HttpOptions, generate_token, is_loopback, machine_names, serve
