@@ -39,6 +39,8 @@ ROBOT_TOOLS = frozenset(
         "end_task",
         "search_memory",
         "look",
+        "open",
+        "close",
     }
 )
 

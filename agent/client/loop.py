@@ -25,7 +25,7 @@ from robocog.agent.client.settings import AgentSettings
 from robocog.agent.client.trace_sinks import Trace
 from robocog.agent.study_protocols import DESCRIPTION_URI, PROTOCOLS, EvalProtocol
 from robocog.shared.errors import ModelServiceError, ServerConnectionError
-from robocog.shared.protocol import CONTROL_TOOLS, FLEET_FULL, MODEL_META_KEY, VISION_TOOLS
+from robocog.shared.protocol import CONTROL_TOOLS, FLEET_FULL, FURNITURE_TOOLS, MODEL_META_KEY, VISION_TOOLS
 from robocog.shared.trace import ModelTurn, Reinvoked, RunFinished, RunStarted, ToolCall, ToolResult, Verdict
 
 Outcome = Literal["ended", "stopped", "error"]
@@ -59,9 +59,10 @@ class EpisodeResult:
         return self.outcome == "stopped"
 
 
-def function_definitions(tools: list[Tool], *, vision: bool = False) -> list[dict[str, Any]]:
-    """MCP tool schemas as OpenAI / LiteLLM function definitions: never the controls, and the camera
-    only with `vision` (a text-only model would get nothing from it)."""
+def function_definitions(tools: list[Tool], *, vision: bool = False, furniture: bool = True) -> list[dict[str, Any]]:
+    """MCP tool schemas as OpenAI / LiteLLM function definitions: never the controls, the camera only
+    with `vision` (a text-only model would get nothing from it), open and close only with `furniture`
+    (the paper's protocol offers its eight tools)."""
     return [
         {
             "type": "function",
@@ -72,7 +73,9 @@ def function_definitions(tools: list[Tool], *, vision: bool = False) -> list[dic
             },
         }
         for t in tools
-        if t.name not in CONTROL_TOOLS and (vision or t.name not in VISION_TOOLS)
+        if t.name not in CONTROL_TOOLS
+        and (vision or t.name not in VISION_TOOLS)
+        and (furniture or t.name not in FURNITURE_TOOLS)
     ]
 
 
@@ -108,7 +111,9 @@ async def run_episode(
     conversation); it is extended in place, and an empty one starts with the system prompt.
     """
     started = time.monotonic()
-    definitions = function_definitions(tools, vision=settings.vision and protocol.offers_camera)
+    definitions = function_definitions(
+        tools, vision=settings.vision and protocol.offers_camera, furniture=protocol.offers_furniture
+    )
     names = {d["function"]["name"] for d in definitions}
     trace.emit(
         RunStarted(
