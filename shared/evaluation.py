@@ -48,6 +48,12 @@ class EvalConfig(BaseModel):
     memory_labels: Literal["believed", "verified"] = Field(
         default="believed", description="'believed' (the paper) or 'verified' (the ground truth labels memory)"
     )
+    observe: Literal["location", "room", "house"] | None = Field(
+        default=None,
+        description="what look_around reveals in every episode: the robot's 'location', its 'room' or the whole "
+        "'house' (default: the server's --observe, itself 'house'); run a study twice to compare partial with "
+        "full observation on the same instances",
+    )
     keep_memory: bool = Field(
         default=False,
         description="keep each unit's memory namespace on the server when the unit ends (default: it is dropped, "

@@ -120,6 +120,8 @@ class Runner:
             "search_k": protocol.search_k,
             "memory_namespace": unit_namespace(cfg.name, spec.name, trial),
         }
+        if cfg.observe is not None:  # only when asked: a server before contract 3.1 does not know it
+            reset["observe"] = cfg.observe
         controls = self.controls(robot)
         for iteration in range(start_iteration, cfg.memory_iterations):
             await controls.reset_world(seed=seed, randomize=cfg.randomize, **reset)

@@ -17,6 +17,7 @@ import pytest
 from robocog.agent.harness.study import run_eval
 from robocog.agent.study_protocols import task_of
 from robocog.shared.evaluation import AttemptRow, EvalConfig, ModelSpec
+from robocog.shared.protocol import FURNITURE_TOOLS, PAPER_TOOLS
 from tests.fake_llm import PLACEHOLDER_KEY, FakeLLM, Request, planner_script
 from tests.helpers import T1, T2
 
@@ -102,6 +103,8 @@ async def test_the_paper_protocol_continues_the_conversation_and_describes_the_w
             assert "<task>" in m["content"] and all(loc in m["content"] for loc in LOCATIONS), m["content"]
     system = requests[0].body["messages"][0]["content"]
     assert "claim success" not in system and "cannot be grasped" not in system
+    # The paper's models are offered the paper's eight tools, whatever the server publishes beyond them.
+    assert all([t["function"]["name"] for t in r.body["tools"]] == list(PAPER_TOOLS) for r in requests)
     # Top 5: by the last iteration six reports are stored, and T1's search returns five.
     assert len(tool_results(groups[6], "search_memory")[0]["results"]) == 5
     # The scratchpad carries over from T1 into T2 (T1 wrote its plan first).
@@ -118,4 +121,6 @@ async def test_the_robocog_protocol_starts_each_task_afresh(fake: FakeLLM, tmp_p
         first = group[0].body["messages"]
         assert [m["role"] for m in first] == ["system", "user"] and first[1]["content"] == task
     assert len(tool_results(groups[6], "search_memory")[0]["results"]) == 3
+    offered = {t["function"]["name"] for t in requests[0].body["tools"]}
+    assert offered == set(PAPER_TOOLS) | FURNITURE_TOOLS, "ours offers open and close (not the camera: text only)"
     assert tool_results(groups[1], "add_to_scratchpad")[0]["entries"] == 1
