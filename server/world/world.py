@@ -185,6 +185,11 @@ class World:
         """The room whose floor holds (x, y), if any (the first in scene order)."""
         return next((r.name for r in self.scene.rooms if r.x[0] <= x <= r.x[1] and r.y[0] <= y <= r.y[1]), None)
 
+    def drawer_or_door_aabb(self, name: str) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+        """The bounding box (world) of the container `name`'s drawer or door where physics has it now."""
+        lo, hi = self.client.getAABB(self.sim.containers[name].body, 0)
+        return (lo[0], lo[1], lo[2]), (hi[0], hi[1], hi[2])
+
     def shut_in(self, name: str) -> str | None:
         """The closed container the object `name` is in (then it can be neither seen nor reached), if any."""
         return truth.hidden(self.sim, self.placement(name))

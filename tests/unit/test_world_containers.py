@@ -204,3 +204,15 @@ def test_look_around_reveals_the_location_the_room_or_the_house(robot: RobotSess
     robot.observe = "room"
     kitchen = {v.name for v in perform_look(robot).locations}
     assert {"Kitchen Shelf", "Kitchen Table", "Fridge"} <= kitchen and "Front Door" not in kitchen
+
+
+def test_the_top_down_picture_draws_the_containers_open_or_closed(robot: RobotSession, world: World) -> None:
+    from robocog.server.render import render_top_down
+
+    closed = render_top_down(world)
+    go(robot, "Kitchen Drawer")
+    operate(robot, "open", "kitchen_drawer")
+    opened = render_top_down(world)
+    assert closed.startswith(b"\x89PNG") and opened.startswith(b"\x89PNG") and opened != closed
+    (_, y0, _), _ = world.drawer_or_door_aabb("kitchen_drawer")
+    assert y0 < world.scene.container("kitchen_drawer").center[1] - 0.225 - 0.3, "drawn where physics has it"
