@@ -117,6 +117,34 @@ def test_a_door_held_by_a_fixed_object_in_its_way_reports_blocked(robot: RobotSe
         world.client.removeConstraint(weld)
 
 
+def test_a_light_object_in_the_way_is_pushed_aside(robot: RobotSession, world: World) -> None:
+    cube = world.sim.objects["cube"]
+    world.sim.put(cube, 3.7, 5.3, cube.bottom + 0.002, 0.0)  # where the cabinet's door swings, not fixed
+    world.sim.settle()
+    go(robot, "Kitchen Cabinet")
+    result = operate(robot, "open", "kitchen_cabinet")
+    assert (result.outcome, result.opening) == ("opened", 1.0)
+    x, y, _ = world.placement("cube").xyz
+    assert (x - 3.7) ** 2 + (y - 5.3) ** 2 > 0.1**2, "the door moved it"
+
+
+def test_the_same_actions_give_the_same_world() -> None:
+    """Containers keep a seeded world deterministic: two worlds, the same opens, close and grab."""
+
+    def episode() -> dict[str, tuple[float, ...]]:
+        from tests.unit.world_helpers import session_for
+
+        with World("kitchen_plus", seed=3) as w:
+            robot = session_for(w)
+            go(robot, "Kitchen Drawer")
+            for verb in ("open", "close", "open"):
+                assert operate(robot, verb, "kitchen_drawer").status == "success"
+            assert perform(robot, ("grab", "sponge")).status == "success"
+            return {name: (*p.xyz, w.sim.joint("kitchen_drawer")) for name, p in w.placements().items()}
+
+    assert episode() == episode()
+
+
 def test_open_and_close_failures_are_reported(robot: RobotSession, world: World) -> None:
     away = operate(robot, "open", "fridge")
     assert (away.error, away.status) == ("not_at_location", "failure") and "move_to('Fridge')" in away.message
