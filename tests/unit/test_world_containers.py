@@ -244,3 +244,11 @@ def test_the_top_down_picture_draws_the_containers_open_or_closed(robot: RobotSe
     assert closed.startswith(b"\x89PNG") and opened.startswith(b"\x89PNG") and opened != closed
     (_, y0, _), _ = world.drawer_or_door_aabb("kitchen_drawer")
     assert y0 < world.scene.container("kitchen_drawer").center[1] - 0.225 - 0.3, "drawn where physics has it"
+
+
+def test_the_live_viewer_gets_the_containers_and_their_state(robot: RobotSession) -> None:
+    from robocog.server.viewer import scene_json, world_json
+
+    drawn = {f["name"] for f in scene_json(robot)["furniture"]}
+    assert {"kitchen_drawer", "kitchen_cabinet", "fridge"} <= drawn
+    assert [f["state"] for f in world_json(robot)["furniture"]] == ["closed", "closed", "closed"]
