@@ -111,9 +111,8 @@ async def run_episode(
     conversation); it is extended in place, and an empty one starts with the system prompt.
     """
     started = time.monotonic()
-    definitions = function_definitions(
-        tools, vision=settings.vision and protocol.offers_camera, furniture=protocol.offers_furniture
-    )
+    furniture = protocol.offers_furniture and await _world_has_furniture(client, tools)
+    definitions = function_definitions(tools, vision=settings.vision and protocol.offers_camera, furniture=furniture)
     names = {d["function"]["name"] for d in definitions}
     trace.emit(
         RunStarted(
@@ -204,6 +203,24 @@ async def run_episode(
         summary=summary,
         error=error,
     )
+
+
+#: The ground truth resource: its `furniture` says whether the world has anything that opens.
+STATE_URI = "robocog://world/state"
+
+
+async def _world_has_furniture(client: Client, tools: list[Tool]) -> bool:
+    """Whether to offer open and close: only in a world with furniture that opens (its ground truth
+    lists some), so a model in a world without (the paper's household, the robocog-v1 suite) is offered
+    what it was before they existed. A server whose state cannot be read keeps what it publishes."""
+    if not any(t.name in FURNITURE_TOOLS for t in tools):
+        return False
+    try:
+        result = await client.read_resource(STATE_URI)
+        state = json.loads("".join(getattr(c, "text", "") for c in result.contents))
+    except Exception:
+        return True
+    return not isinstance(state, dict) or bool(state.get("furniture"))
 
 
 async def _describe(client: Client) -> str:
