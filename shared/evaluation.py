@@ -145,6 +145,12 @@ class AttemptRow(BaseModel):
     seed: int
     memory_labels: Literal["believed", "verified"]
     protocol: Literal["paper", "robocog"] = "robocog"
+    observe: Literal["location", "room", "house"] | None = Field(
+        default=None,
+        description="what look_around revealed, when the study set it (absent: the server's own, by default the "
+        "whole house)",
+        exclude_if=lambda v: v is None,
+    )
     trace: str | None = Field(description="the attempt's trace file, relative to the results file")
     version: str
     reason: str = Field(default="", description="the ground-truth verdict's reason")

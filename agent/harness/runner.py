@@ -221,6 +221,7 @@ class Runner:
             "seed": cfg.seed + trial,
             "memory_labels": cfg.memory_labels,
             "protocol": cfg.protocol,
+            "observe": cfg.observe,
             "trace": str(trace_path.relative_to(self.out.parent)),
             "version": __version__,
             "study": cfg.name,

@@ -124,3 +124,28 @@ async def test_the_robocog_protocol_starts_each_task_afresh(fake: FakeLLM, tmp_p
     # Text only: no camera; and the household has nothing that opens: no open and close either.
     assert all([t["function"]["name"] for t in r.body["tools"]] == list(PAPER_TOOLS) for r in requests)
     assert tool_results(groups[1], "add_to_scratchpad")[0]["entries"] == 1
+
+
+async def test_a_study_under_partial_observation_records_it_in_every_row(fake: FakeLLM, tmp_path: Path) -> None:
+    fake.reset()
+    config = EvalConfig(
+        name="observe-room",
+        models=[ModelSpec(model="openai/planner", api_base=fake.openai_base, api_key=PLACEHOLDER_KEY)],
+        tasks=["T1"],
+        trials=1,
+        memory_iterations=1,
+        observe="room",
+    )
+    rows = await run_eval(config, tmp_path / "room.jsonl")
+    assert [(r.observe, r.outcome) for r in rows] == [("room", rows[0].outcome)] and rows[0].outcome != "error"
+    looks = [
+        json.loads(m["content"])
+        for r in fake.model_requests
+        for m in r.body["messages"]
+        if m["role"] == "tool" and '"locations"' in str(m.get("content"))
+    ]
+    assert looks and all(look.get("observed") == "room" for look in looks)
+    assert '"observe"' in (tmp_path / "room.jsonl").read_text()
+    fake.reset()
+    plain = await run_eval(config.model_copy(update={"observe": None}), tmp_path / "house.jsonl")
+    assert plain[0].observe is None and '"observe"' not in (tmp_path / "house.jsonl").read_text()
