@@ -115,6 +115,9 @@ class Container(_Strict):
             raise ValueError("size: must exceed four wall thicknesses in x, y and z")
         if self.kind != "drawer" and self.travel is not None and not 0 < self.travel <= 120:
             raise ValueError("travel: a door opens by at most 120 degrees")
+        depth = self.size[0] if self.facing in ("+x", "-x") else self.size[1]
+        if self.kind == "drawer" and self.travel is not None and self.travel >= depth - 2 * self.wall:
+            raise ValueError(f"travel: a drawer slides out by less than its depth ({depth:g} m) less two walls")
         return self
 
 

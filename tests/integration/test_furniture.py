@@ -101,3 +101,28 @@ async def test_a_client_offers_open_and_close_only_in_a_world_with_furniture_tha
     household = build_server(SessionConfig(data_dir=tmp_path / "household"), profile="eval")
     async with Client(household, raise_exceptions=True) as paper_world:
         assert not await _world_has_furniture(paper_world, (await paper_world.list_tools()).tools)
+
+
+@pytest.mark.filterwarnings("ignore::mcp.shared.exceptions.MCPDeprecationWarning")  # a 2025-11-25 client's subscribe
+async def test_a_subscriber_hears_of_a_door_opened_not_of_a_failed_open(tmp_path: Path) -> None:
+    import anyio
+
+    updated: list[str] = []
+
+    async def on_message(message: Any) -> None:
+        if getattr(message, "method", None) == "notifications/resources/updated":
+            updated.append(str(message.params.uri))
+
+    config = SessionConfig(scene=Path("kitchen_plus"), data_dir=tmp_path / "memory")
+    client = Client(build_server(config), raise_exceptions=True, mode="legacy")
+    client.message_handler = on_message
+    async with client:
+        await client.subscribe_resource("robocog://world/state")
+        await client.call_tool("open", {"furniture": "fridge"})  # not at the fridge: nothing moved
+        await client.call_tool("move_to", {"location": "Fridge"})
+        await client.call_tool("open", {"furniture": "fridge"})
+        with anyio.fail_after(5):
+            while len(updated) < 2:
+                await anyio.sleep(0.01)
+        await anyio.sleep(0.05)
+    assert updated == ["robocog://world/state"] * 2  # the move, then the fridge's door

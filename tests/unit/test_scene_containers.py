@@ -89,6 +89,9 @@ def test_a_malformed_container_is_a_scene_error_naming_the_field(tmp_path: Path,
     bad["containers"][0]["size"] = [0.06, 0.45, 0.35]
     assert "four wall thicknesses" in error_of(tmp_path, bad)
     bad = copy.deepcopy(kitchen)
+    bad["containers"][0]["travel"] = 0.45
+    assert "containers[0].travel: a drawer slides out by less than its depth" in error_of(tmp_path, bad)
+    bad = copy.deepcopy(kitchen)
     bad["place_positions"][-1]["support"] = "freezer"
     assert "support 'freezer' is neither 'floor', a furniture part nor a container" in error_of(tmp_path, bad)
 
