@@ -64,8 +64,9 @@ chromium:
 		apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null; \
 	else echo "Chromium is missing: the browser tests will skip (install it: sudo apt-get install chromium)"; fi
 
-bench: $(STAMP) chromium ## Print the performance figures as JSON
-	$(BIN)/python tests/bench/run.py
+BENCH_ONLY ?=
+bench: $(STAMP) chromium ## Print the performance figures as JSON and record them in docs/figures.json (BENCH_ONLY=startup,overhead picks some)
+	$(BIN)/python tests/bench/run.py --record $(if $(BENCH_ONLY),--only $(BENCH_ONLY))
 
 SOAK_EPISODES ?= 1000
 SOAK_MINUTES ?= 30

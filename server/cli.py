@@ -161,8 +161,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             routed = os.environ.get("ROBOCOG_FLEET_PROCESS")  # a process of a fleet behind a router
             where = f"fleet process {routed} ready" if routed else f"MCP over streamable HTTP at {http.url}"
             print(f"robocog-server: {where}", file=sys.stderr)
-            if args.auth_token == "generate":
-                print(f"robocog-server: bearer token (clients send it as ROBOCOG_AUTH_TOKEN): {token}", file=sys.stderr)
+            _say_generated_token(args, http)
             serve(server, http, log_level=args.log_level)
     except WorldError as exc:
         print(f"robocog-server: {exc}", file=sys.stderr)
@@ -170,6 +169,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         pass
     return 0
+
+
+def _say_generated_token(args: argparse.Namespace, http: HttpOptions) -> None:
+    """With `--auth-token generate`, the token this server made up, for its clients."""
+    if args.auth_token == "generate":
+        token = http.auth_token
+        print(f"robocog-server: bearer token (clients send it as ROBOCOG_AUTH_TOKEN): {token}", file=sys.stderr)
 
 
 def _route(args: argparse.Namespace, argv: list[str], http: HttpOptions) -> int:
@@ -194,11 +200,7 @@ def _route(args: argparse.Namespace, argv: list[str], http: HttpOptions) -> int:
                 f"{args.processes} processes",
                 file=sys.stderr,
             )
-            if args.auth_token == "generate":
-                print(
-                    f"robocog-server: bearer token (clients send it as ROBOCOG_AUTH_TOKEN): {http.auth_token}",
-                    file=sys.stderr,
-                )
+            _say_generated_token(args, http)
             serve(router, args.host, args.port, args.log_level)
     except ConfigError as exc:
         print(f"robocog-server: {exc}", file=sys.stderr)

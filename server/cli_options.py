@@ -66,7 +66,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="also serve the live viewer (a web page: the map, the camera, the tool calls as they happen) on "
         "http://127.0.0.1:PORT/ (default port: 8766; 0 picks a free one), with any transport",
     )
-    a = p.add_argument_group("access (HTTP: see the README's 'Security' section)")
+    a = p.add_argument_group("access (HTTP: see the docs' Security page, docs/security.md)")
     a.add_argument(
         "--auth-token",
         default=os.environ.get("ROBOCOG_AUTH_TOKEN") or None,
@@ -199,14 +199,27 @@ def _positive(kind: type[int] | type[float]) -> Callable[[str], float]:
     return parse
 
 
-def _port(text: str) -> int:
-    try:
-        port = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a port number") from None
-    if not 0 <= port <= 65535:
-        raise argparse.ArgumentTypeError(f"{port} is not a port number (0-65535)")
-    return port
+def _whole(low: int, high: int | None, not_whole: str, out_of_range: str) -> Callable[[str], int]:
+    """A parser of whole numbers from `low` to `high` (None: no bound); the messages are formats
+    of the text given (`{text}`) and of the number (`{n}`)."""
+
+    def parse(text: str) -> int:
+        try:
+            n = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(not_whole.format(text=text)) from None
+        if n < low or (high is not None and n > high):
+            raise argparse.ArgumentTypeError(out_of_range.format(n=n))
+        return n
+
+    return parse
+
+
+_port = _whole(0, 65535, "{text!r} is not a port number", "{n} is not a port number (0-65535)")
+_search_k = _whole(1, 20, "{text!r} is not a whole number", "{n} is not between 1 and 20")
+_count_of_processes = _whole(
+    1, None, "{text!r} is not a number of processes (or 'auto')", "{n} is not a positive number of processes"
+)
 
 
 def _tool_list(text: str) -> frozenset[str]:
@@ -217,22 +230,4 @@ def _tool_list(text: str) -> frozenset[str]:
 
 
 def _processes(text: str) -> int:
-    if text == "auto":
-        return os.cpu_count() or 1
-    try:
-        n = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number of processes (or 'auto')") from None
-    if n < 1:
-        raise argparse.ArgumentTypeError(f"{n} is not a positive number of processes")
-    return n
-
-
-def _search_k(text: str) -> int:
-    try:
-        k = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
-    if not 1 <= k <= 20:
-        raise argparse.ArgumentTypeError(f"{k} is not between 1 and 20")
-    return k
+    return (os.cpu_count() or 1) if text == "auto" else _count_of_processes(text)

@@ -23,7 +23,8 @@ import json
 import logging
 import time
 from collections import OrderedDict, deque
-from collections.abc import AsyncIterator, Awaitable, Callable, Mapping
+from collections.abc import AsyncGenerator, AsyncIterator, Awaitable, Callable, Mapping
+from contextlib import aclosing
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any
@@ -155,18 +156,12 @@ class EventBus:
     async def follow(self, after: int, *, heartbeat_s: float | None = None) -> AsyncIterator[Event | None]:
         """Every event after `after` as it is published, until the bus closes; None after each
         `heartbeat_s` without one. After a `gap` the reader continues from the newest event."""
-        while not self.closed:
-            events = self.since(after)
-            if not events:
-                changed = self._changed
-                with anyio.move_on_after(heartbeat_s) as waiting:
-                    await changed.wait()
-                if waiting.cancelled_caught:
+        async with aclosing(self._wake_ups(after, heartbeat_s)) as wake_ups:
+            async for events in wake_ups:
+                if not events:
                     yield None
-                continue
-            for event in events:
-                yield event
-                after = event.seq
+                for event in events:
+                    yield event
 
     async def batches(
         self, after: int, *, heartbeat_s: float | None = None, tick_s: float = 0.0
@@ -175,6 +170,18 @@ class EventBus:
         at most one chunk per `tick_s` (what a reader costs the event loop is a write per tick, not
         per event, however fast the robot acts), and a keep-alive comment after `heartbeat_s`
         without any."""
+        async with aclosing(self._wake_ups(after, heartbeat_s)) as wake_ups:
+            async for events in wake_ups:
+                if not events:
+                    yield b": keep-alive\n\n"
+                    continue
+                yield b"".join(event.encoded for event in events)
+                if tick_s:
+                    await anyio.sleep(tick_s)
+
+    async def _wake_ups(self, after: int, heartbeat_s: float | None) -> AsyncGenerator[list[Event]]:
+        """The events after `after`, a list each time there are new ones, until the bus closes; an
+        empty list after each `heartbeat_s` without any (the next list starts where the last ended)."""
         while not self.closed:
             events = self.since(after)
             if not events:
@@ -182,12 +189,10 @@ class EventBus:
                 with anyio.move_on_after(heartbeat_s) as waiting:
                     await changed.wait()
                 if waiting.cancelled_caught:
-                    yield b": keep-alive\n\n"
+                    yield []
                 continue
             after = events[-1].seq
-            yield b"".join(event.encoded for event in events)
-            if tick_s:
-                await anyio.sleep(tick_s)
+            yield events
 
     def close(self) -> None:
         self.closed = True

@@ -5,7 +5,7 @@
 - **Bearer token** (`--auth-token`, `$ROBOCOG_AUTH_TOKEN`, or `--auth-token generate`): every request
   to /mcp carries `Authorization: Bearer TOKEN`; without it 401, with a wrong one 401. Checked by
   the MCP SDK's own auth middleware through a `TokenVerifier` (`BearerToken` below), compared in
-  constant time. TLS is a reverse proxy's job (the README shows one).
+  constant time. TLS is a reverse proxy's job (docs/security.md shows one).
 - **Host and Origin** are always checked (DNS rebinding): loopback names, the bind address, this
   machine's names, and whatever `--allowed-host`/`--allowed-origin` add; a foreign Host gets 421,
   a foreign Origin 403.

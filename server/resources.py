@@ -15,8 +15,8 @@ from robocog.assets import ASSETS_DIR
 from robocog.shared.errors import WorldError
 
 if TYPE_CHECKING:
-    from robocog.server.app import AppState
     from robocog.server.session import RobotSession
+    from robocog.server.state import AppState
 
 
 class Current:

@@ -36,8 +36,8 @@ if TYPE_CHECKING:
     from mcp import Client
     from mcp.server.mcpserver import MCPServer
 
-    from robocog.server.app import AppState
     from robocog.server.config import SessionConfig
+    from robocog.server.state import AppState
 
 _FIXTURES = frozenset({"robocog_client", "robocog_world"})
 

@@ -7,7 +7,7 @@ import base64
 import inspect
 import json
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Annotated, Any
+from typing import Annotated, Any
 
 import anyio
 import anyio.from_thread
@@ -29,12 +29,10 @@ from robocog.server.clients import (
 )
 from robocog.server.consent import ConsentGate
 from robocog.server.ownership import Driver, RobotBusy
+from robocog.server.state import AppState
 from robocog.server.tools.base import Caller, ProgressFn, Tool
 from robocog.shared.protocol import DRIVER_META_KEY, MODEL_META_KEY
 from robocog.shared.results import WithImage
-
-if TYPE_CHECKING:
-    from robocog.server.app import AppState
 
 
 def _tool_result(result: BaseModel) -> CallToolResult:
@@ -88,8 +86,6 @@ def register_tool(mcp: MCPServer[AppState], tool: Tool[Any], access: Access) -> 
     A tool that is not read-only needs the robot's lease (see `ownership.py`); with a consent gate,
     an action first asks the user (see `consent.py`).
     """
-    from robocog.server.app import AppState  # the SDK reads the handler's annotations at run time
-
     exclusive = not tool.annotations.read_only_hint
     gate = access.gate if access.asks_consent(tool) else None
 

@@ -8,6 +8,7 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from robocog.shared.config_files import load_yaml_model
+from robocog.shared.provenance import Provenance
 
 
 class ModelSpec(BaseModel):
@@ -168,10 +169,16 @@ class AttemptRow(BaseModel):
         default=None, description="robot actions (move_to, grab, place) in the planner's optimal plan, when known"
     )
     errors: dict[str, int] = Field(
-        default={}, description="the error taxonomy's counts from the attempt's trace (agent/taxonomy.py)"
+        default={}, description="the error taxonomy's counts from the attempt's trace (agent/analysis/taxonomy.py)"
     )
     robot_actions: int | None = Field(
         default=None, description="the robot actions (move_to, grab, place calls) in the trace; efficiency's numerator"
+    )
+    capabilities: list[str] = Field(
+        default=[], description="the instance's capability tags (a suite that tags its instances); none in robocog-v1"
+    )
+    provenance: Provenance | None = Field(
+        default=None, description="what the attempt ran on (robocog.shared.provenance); None in rows written before it"
     )
 
     @model_validator(mode="before")

@@ -1,5 +1,7 @@
 """Names both sides of the MCP connection agree on, beyond the tools' own schemas."""
 
+import re
+
 #: `_meta` key a client sets on tool calls to name the model driving the robot; end_task stores it.
 MODEL_META_KEY = "robocog/model"
 
@@ -40,3 +42,6 @@ FURNITURE_TOOLS = frozenset({"open", "close"})
 #: The version of the published MCP contract (assets/contract/, CHANGELOG.md there). The server announces
 #: it in its instructions as "MCP contract X.Y"; `robocog contract` reads it back from there.
 CONTRACT_VERSION = "3.1"
+
+#: The contract version in a server's instructions: "MCP contract 1.0", "contract 2.3".
+CONTRACT_VERSION_PATTERN = re.compile(r"\bcontract\s+v?(\d+(?:\.\d+)+)\b", re.IGNORECASE)

@@ -1,22 +1,21 @@
 """What the browser tests share: Debian's Chromium driven by Playwright (or a skip that says how to
-get them), a page, an ASGI app served on a free loopback port, a real `robocog-server --view 0` and
-the address its viewer announced, and where screenshots go (build/screenshots, opened by hand)."""
+get them), a page, an ASGI app served on a free loopback port, and where screenshots go
+(build/screenshots, opened by hand). A real `robocog-server --view 0` and the address its viewer
+announced: `tests.helpers.live_server`."""
 
 from __future__ import annotations
 
-import re
 import shutil
 import socket
-import tempfile
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from pathlib import Path
-from typing import Any, TextIO, cast
+from typing import Any
 
 import anyio
 import pytest
 
-from tests.helpers import ROOT, server_command
+from tests.helpers import ROOT
 
 SCREENSHOTS = ROOT / "build" / "screenshots"
 INSTALL = (
@@ -75,23 +74,3 @@ async def serving(app: Any) -> AsyncIterator[str]:
         finally:
             server.should_exit = True
     sock.close()
-
-
-@asynccontextmanager
-async def live_server(data_dir: Path) -> AsyncIterator[tuple[Any, str]]:
-    """A real `robocog-server --profile eval --view 0` over stdio (an MCP client), and its viewer's address."""
-    from mcp import Client
-    from mcp.client.stdio import StdioServerParameters, stdio_client
-
-    command, *rest = server_command()
-    args = [*rest, "--profile", "eval", "--view", "0", "--data-dir", str(data_dir)]
-    with tempfile.NamedTemporaryFile("w+", suffix=".log") as log:
-        params = StdioServerParameters(command=command, args=args, env={"ANONYMIZED_TELEMETRY": "False"})
-        async with Client(stdio_client(params, errlog=cast(TextIO, log))) as client:
-            url = None
-            with anyio.fail_after(60):
-                while url is None:
-                    found = re.search(r"live viewer at (http://127\.0\.0\.1:\d+/)", Path(log.name).read_text())
-                    url = found.group(1) if found else None
-                    await anyio.sleep(0.05)
-            yield client, url

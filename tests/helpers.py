@@ -1,5 +1,7 @@
 """What several test modules share: the tool names, the paper's map and tasks, snapshot checking, and
-how to start a real server process (its command line, a free loopback port, a stdio transport).
+how to start a real server process (its command line, a free loopback port, a stdio transport, an
+HTTP server and its process, one with its live viewer) and talk to it (an SDK session over HTTP, or
+raw JSON-RPC posts as a client without the SDK sends them); the benches use it too.
 
 Test modules import from here, never from one another nor from the code under test, so that the
 expectations stay written down once and independent of the code they check.
@@ -10,18 +12,22 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import re
 import shutil
 import socket
 import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Iterator
-from contextlib import contextmanager
+from collections.abc import AsyncIterator, Iterator
+from contextlib import asynccontextmanager, contextmanager
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, TextIO, cast
 
 from robocog.shared.paper import T1_SEQUENCE, T2_SEQUENCE, Action, action_args
+
+if TYPE_CHECKING:
+    from mcp import Client
 
 __all__ = ["T1_SEQUENCE", "T2_SEQUENCE", "Action", "action_args"]
 
@@ -146,31 +152,133 @@ def server_env() -> dict[str, str]:
 
 
 @contextmanager
-def http_server(log: Path, *args: str, timeout_s: float = 60) -> Iterator[str]:
-    """`robocog-server --transport http ARGS` on a free loopback port, its output in `log`; yields
-    its /mcp URL once it listens, and checks at the end that it is still running (then stops it)."""
+def http_server_process(
+    log: Path, *args: str, timeout_s: float = 60, env: dict[str, str] | None = None
+) -> Iterator[tuple[str, subprocess.Popen[bytes]]]:
+    """`robocog-server --transport http ARGS` on a free loopback port, its output in `log` (and `env`
+    over `server_env()`); yields its /mcp URL and its process once it listens, then stops it."""
     port = free_port()
     with log.open("wb") as out:
         proc = subprocess.Popen(
             [*server_command(), "--transport", "http", "--port", str(port), *args],
             stdout=out,
             stderr=subprocess.STDOUT,
-            env=server_env(),
+            env=server_env() | (env or {}),
         )
         try:
             deadline = time.monotonic() + timeout_s
-            while True:
-                assert proc.poll() is None, log.read_text(errors="replace")
+            while not listening(port):
+                assert proc.poll() is None, log.read_text(errors="replace")[-3000:]
                 assert time.monotonic() < deadline, f"the HTTP server did not listen within {timeout_s:g} s"
-                with socket.socket() as s:
-                    if s.connect_ex(("127.0.0.1", port)) == 0:
-                        break
                 time.sleep(0.1)
-            yield f"http://127.0.0.1:{port}/mcp"
-            assert proc.poll() is None, log.read_text(errors="replace")
+            yield f"http://127.0.0.1:{port}/mcp", proc
         finally:
             proc.terminate()
-            proc.wait(timeout=30)
+            proc.wait(timeout=60)
+
+
+@contextmanager
+def http_server(log: Path, *args: str, timeout_s: float = 60) -> Iterator[str]:
+    """`http_server_process`'s URL, and a check at the end that the server is still running."""
+    with http_server_process(log, *args, timeout_s=timeout_s) as (url, proc):
+        yield url
+        assert proc.poll() is None, log.read_text(errors="replace")
+
+
+def listening(port: int) -> bool:
+    """Whether something accepts connections on loopback's `port`."""
+    with socket.socket() as s:
+        return s.connect_ex(("127.0.0.1", port)) == 0
+
+
+def rss_mb(pid: int) -> float:
+    """A process's resident memory, in MB (Linux)."""
+    return int(Path(f"/proc/{pid}/statm").read_text().split()[1]) * 4096 / 1e6
+
+
+def fleet_processes(router: int) -> list[int]:
+    """A router's fleet processes (its children that are robocog servers, not `chroma run`)."""
+    found = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            ppid = int(stat.read_text().rsplit(")", 1)[-1].split()[1])
+            cmdline = (stat.parent / "cmdline").read_bytes()
+        except (OSError, ValueError):
+            continue
+        if ppid == router and b"robocog.server.cli" in cmdline:
+            found.append(int(stat.parent.name))
+    return sorted(found)
+
+
+@asynccontextmanager
+async def http_session(url: str) -> AsyncIterator[Client]:
+    """An MCP session (the SDK's client, initialize handshake) over HTTP: one driver."""
+    from mcp import Client
+    from mcp.client.streamable_http import streamable_http_client
+
+    async with Client(streamable_http_client(url), mode="legacy") as client:
+        yield client
+
+
+async def call_ok(client: Client, tool: str, **arguments: Any) -> dict[str, Any]:
+    """Call a tool that must succeed; its structured result."""
+    result = await client.call_tool(tool, arguments)
+    assert not result.is_error, result.content
+    assert isinstance(result.structured_content, dict)
+    return dict(result.structured_content)
+
+
+#: An `initialize` request as a client without the SDK posts it, and the headers of such posts.
+INITIALIZE = {
+    "jsonrpc": "2.0",
+    "id": 1,
+    "method": "initialize",
+    "params": {"protocolVersion": "2025-11-25", "capabilities": {}, "clientInfo": {"name": "probe", "version": "1"}},
+}
+HEADERS = {"accept": "application/json, text/event-stream", "content-type": "application/json"}
+
+
+def raw_initialize(url: str) -> Any:
+    """POST `initialize` (and, when it is answered 200, `notifications/initialized`) with httpx: the
+    answer, whose `mcp-session-id` header names the session."""
+    import httpx
+
+    answer = httpx.post(url, json=INITIALIZE, headers=HEADERS, timeout=30)
+    if answer.status_code == 200:
+        headers = HEADERS | {"mcp-session-id": answer.headers["mcp-session-id"], "mcp-protocol-version": "2025-11-25"}
+        httpx.post(url, json={"jsonrpc": "2.0", "method": "notifications/initialized"}, headers=headers, timeout=30)
+    return answer
+
+
+def raw_call(url: str, sid: str, tool: str, **arguments: Any) -> str:
+    """POST `tools/call` on session `sid` with httpx: the answer's status code and text."""
+    import httpx
+
+    headers = HEADERS | {"mcp-session-id": sid, "mcp-protocol-version": "2025-11-25"}
+    message = {"jsonrpc": "2.0", "id": 2, "method": "tools/call", "params": {"name": tool, "arguments": arguments}}
+    answer = httpx.post(url, json=message, headers=headers, timeout=60)
+    return f"{answer.status_code} {answer.text}"
+
+
+@asynccontextmanager
+async def live_server(data_dir: Path, *args: str) -> AsyncIterator[tuple[Client, str]]:
+    """A real `robocog-server --view 0 ARGS` over stdio (an MCP client), and its viewer's address."""
+    import anyio
+    from mcp import Client
+    from mcp.client.stdio import StdioServerParameters, stdio_client
+
+    command, *rest = server_command()
+    argv = [*rest, *args, "--view", "0", "--data-dir", str(data_dir)]
+    with tempfile.NamedTemporaryFile("w+", suffix=".log") as log:
+        params = StdioServerParameters(command=command, args=argv, env={"ANONYMIZED_TELEMETRY": "False"})
+        async with Client(stdio_client(params, errlog=cast(TextIO, log))) as client:
+            url = None
+            with anyio.fail_after(60):
+                while url is None:
+                    found = re.search(r"live viewer at (http://127\.0\.0\.1:\d+/)", Path(log.name).read_text())
+                    url = found.group(1) if found else None
+                    await anyio.sleep(0.05)
+            yield client, url
 
 
 #: The environment of a local Ray cluster: nothing phones home.

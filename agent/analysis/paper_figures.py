@@ -15,10 +15,12 @@ Errored attempts are in none of them. matplotlib is imported when a figure is dr
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 from robocog.agent.analysis.figure_layout import iteration_colour, legend_below, new_figure, panel_size, panels
-from robocog.agent.analysis.stats import Summary
+from robocog.agent.analysis.stats import IterationPoint, Summary
 
 # The paper's box medians.
 _MEDIAN = "cyan"
@@ -76,32 +78,49 @@ def _bar_panel_width(summary: Summary) -> float:
     return max(3.6, 0.5 * len(summary.tasks) * max(1, len(summary.memory_iterations)) + 0.9)
 
 
+def _slot_width(summary: Summary) -> float:
+    """The width of a slot: a task's group (0.8 wide) holds one per memory iteration."""
+    return 0.8 / max(1, len(summary.memory_iterations))
+
+
+def _slots(summary: Summary, model: str) -> Iterator[tuple[int, float, IterationPoint | None]]:
+    """A model's slots, iteration by iteration, task by task: the memory iteration, the slot's
+    centre and its attempts (None: none)."""
+    width = _slot_width(summary)
+    for j, i in enumerate(summary.memory_iterations):
+        for k, t in enumerate(summary.tasks):
+            row = summary.row(model, t)
+            yield i, k - 0.4 + width * (j + 0.5), row.point(i) if row else None
+
+
+def _style_panel(ax: Any, model: str, tick_labels: list[str], ylabel: str) -> None:
+    """A model's panel of Fig. 4 or 5: a tick under each task's group, the model as its title, a
+    horizontal grid behind the marks."""
+    ax.set_xticks(range(len(tick_labels)), tick_labels)
+    ax.set_xlim(-0.5, len(tick_labels) - 0.5)
+    ax.set_ylabel(ylabel)
+    ax.set_title(model, fontsize=10)
+    ax.grid(axis="y", alpha=0.3)
+    ax.set_axisbelow(True)
+
+
 def draw_paper_success(summary: Summary, path: Path) -> None:
     """Fig. 4: per model, success percent as grouped bars (x = task, a bar per memory iteration)."""
     from matplotlib.patches import Patch
 
     models, tasks, iters = summary.reported_models, summary.tasks, summary.memory_iterations
     fig = new_figure(*panel_size(len(models), _bar_panel_width(summary), 3.3))
-    width = 0.8 / max(1, len(iters))
+    width = _slot_width(summary)
     for ax, m in zip(panels(fig, len(models)), models, strict=True):
-        for j, i in enumerate(iters):
-            for k, t in enumerate(tasks):
-                row = summary.row(m, t)
-                p = row.point(i) if row else None
-                x = k - 0.4 + width * (j + 0.5)
-                if p is None:
-                    ax.text(x, 2, "n/a", ha="center", va="bottom", fontsize=7, rotation=90, color="grey")
-                    continue
-                bars = ax.bar(x, 100 * p.rate, width=width * 0.95, color=iteration_colour(i))
-                ax.bar_label(bars, labels=[f"{100 * p.rate:.1f}"], padding=2, fontsize=7)
-        ax.set_xticks(range(len(tasks)), [_task_label(summary, m, t) for t in tasks])
-        ax.set_xlim(-0.5, len(tasks) - 0.5)
+        for i, x, p in _slots(summary, m):
+            if p is None:
+                ax.text(x, 2, "n/a", ha="center", va="bottom", fontsize=7, rotation=90, color="grey")
+                continue
+            bars = ax.bar(x, 100 * p.rate, width=width * 0.95, color=iteration_colour(i))
+            ax.bar_label(bars, labels=[f"{100 * p.rate:.1f}"], padding=2, fontsize=7)
+        _style_panel(ax, m, [_task_label(summary, m, t) for t in tasks], "success [%]")
         ax.set_ylim(0, 110)
         ax.set_yticks(range(0, 101, 10))
-        ax.set_ylabel("success [%]")
-        ax.set_title(m, fontsize=10)
-        ax.grid(axis="y", alpha=0.3)
-        ax.set_axisbelow(True)
     handles = [Patch(color=iteration_colour(i)) for i in iters]
     legend_below(fig, handles, [str(i) for i in iters], "memory iteration")
     fig.suptitle(
@@ -119,56 +138,47 @@ def draw_paper_tool_calls(summary: Summary, path: Path) -> None:
 
     models, tasks, iters = summary.reported_models, summary.tasks, summary.memory_iterations
     fig = new_figure(*panel_size(len(models), _bar_panel_width(summary), 3.3))
-    width = 0.8 / max(1, len(iters))
+    width = _slot_width(summary)
     for ax, m in zip(panels(fig, len(models)), models, strict=True):
         top = 1
-        for j, i in enumerate(iters):
-            for k, t in enumerate(tasks):
-                row = summary.row(m, t)
-                p = row.point(i) if row else None
-                x = k - 0.4 + width * (j + 0.5)
-                if p is None or not p.ended_tool_calls:
-                    ax.text(x, 0.5, "n/a", ha="center", va="bottom", fontsize=7, rotation=90, color="grey")
-                    continue
-                top = max(top, *p.ended_tool_calls)
-                dots = len(p.ended_tool_calls) < _DOTS_BELOW
-                box = ax.boxplot(
-                    [list(p.ended_tool_calls)],
-                    positions=[x],
-                    widths=width * 0.8,
-                    patch_artist=True,
-                    manage_ticks=False,
-                    showfliers=not dots,  # the dots show every attempt, outliers included
-                    medianprops={"color": _MEDIAN, "linewidth": 1.5},
-                    flierprops={"marker": "o", "markersize": 3},
-                )
-                for patch in box["boxes"]:
-                    patch.set_facecolor(iteration_colour(i))
-                    patch.set_alpha(0.85)
-                for median in box["medians"]:
-                    median.set_path_effects([Stroke(linewidth=3, foreground="black"), Normal()])
-                if not dots:
-                    continue
-                # The attempts themselves, so a box of one or two attempts still shows its colour.
-                count = len(p.ended_tool_calls)
-                spread = [width * 0.5 * ((n + 0.5) / count - 0.5) for n in range(count)]
-                ax.scatter(
-                    [x + d for d in spread],
-                    p.ended_tool_calls,
-                    s=9,
-                    color=iteration_colour(i),
-                    edgecolors="black",
-                    linewidths=0.4,
-                    zorder=3,
-                )
-        ax.set_xticks(range(len(tasks)), [_task_label(summary, m, t, ended_only=True) for t in tasks])
-        ax.set_xlim(-0.5, len(tasks) - 0.5)
+        for i, x, p in _slots(summary, m):
+            if p is None or not p.ended_tool_calls:
+                ax.text(x, 0.5, "n/a", ha="center", va="bottom", fontsize=7, rotation=90, color="grey")
+                continue
+            top = max(top, *p.ended_tool_calls)
+            dots = len(p.ended_tool_calls) < _DOTS_BELOW
+            box = ax.boxplot(
+                [list(p.ended_tool_calls)],
+                positions=[x],
+                widths=width * 0.8,
+                patch_artist=True,
+                manage_ticks=False,
+                showfliers=not dots,  # the dots show every attempt, outliers included
+                medianprops={"color": _MEDIAN, "linewidth": 1.5},
+                flierprops={"marker": "o", "markersize": 3},
+            )
+            for patch in box["boxes"]:
+                patch.set_facecolor(iteration_colour(i))
+                patch.set_alpha(0.85)
+            for median in box["medians"]:
+                median.set_path_effects([Stroke(linewidth=3, foreground="black"), Normal()])
+            if not dots:
+                continue
+            # The attempts themselves, so a box of one or two attempts still shows its colour.
+            count = len(p.ended_tool_calls)
+            spread = [width * 0.5 * ((n + 0.5) / count - 0.5) for n in range(count)]
+            ax.scatter(
+                [x + d for d in spread],
+                p.ended_tool_calls,
+                s=9,
+                color=iteration_colour(i),
+                edgecolors="black",
+                linewidths=0.4,
+                zorder=3,
+            )
+        _style_panel(ax, m, [_task_label(summary, m, t, ended_only=True) for t in tasks], "tool calls")
         ax.set_ylim(0, top * 1.12 + 1)
         ax.yaxis.set_major_locator(MaxNLocator(integer=True))
-        ax.set_ylabel("tool calls")
-        ax.set_title(m, fontsize=10)
-        ax.grid(axis="y", alpha=0.3)
-        ax.set_axisbelow(True)
     handles = [Patch(facecolor=iteration_colour(i)) for i in iters]
     legend_below(fig, handles, [str(i) for i in iters], "memory iteration")
     fig.suptitle(

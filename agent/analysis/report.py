@@ -1,5 +1,7 @@
 """`robocog report`: the paper's tables and figures (and more) from a results file.
 
+- Where the rows disagree on what they ran on (`robocog.agent.analysis.provenance`): robocog's and
+  the contract's versions, the tools, the system prompt, a task, a model's sampling, the seed.
 - Which protocol produced the results (`paper` or `robocog`, from the rows). A file mixing both is
   reported with each model once per protocol ("gpt-4.1 (paper)", "gpt-4.1 (robocog)").
 - Errored attempts (the model service or the server failed) first, per model and task; every
@@ -31,6 +33,7 @@ from pathlib import Path
 
 from robocog.agent.analysis.capability_figure import draw_capability
 from robocog.agent.analysis.figures import FigureFiles, draw_figures
+from robocog.agent.analysis.provenance import disagreements
 from robocog.agent.analysis.report_families import families_section
 from robocog.agent.analysis.report_sections import (
     belief_section,
@@ -55,10 +58,16 @@ def markdown(
     csv_format: CsvFormat = "ours",
     scores: Sequence[FamilyRow] = (),
     capability: str | None = None,
+    provenance: Sequence[str] = (),
 ) -> str:
     """The text of report.md (`figures` is None when no attempt counts: then only the errors); the
-    per-family section when `scores` are given, with the `capability` figure when drawn."""
+    per-family section when `scores` are given, with the `capability` figure when drawn; the
+    `provenance` disagreements first."""
     parts = [f"# {title}", ""]
+    if provenance:
+        parts += ["## Provenance: the rows disagree", ""]
+        parts += [f"- {line}" for line in provenance]
+        parts += ["", "Numbers below pool rows that ran on different things; compare them with care.", ""]
     parts += protocol_section(summary)
     parts += errored_section(summary)
     parts += [
@@ -94,6 +103,7 @@ def render(
     scores the instances."""
     if not rows:
         raise ValueError("the results file holds no attempts")
+    provenance = disagreements(rows)
     rows = by_protocol(rows)
     out.mkdir(parents=True, exist_ok=True)
     summary = summarise(by_family(rows))
@@ -104,6 +114,7 @@ def render(
     scores = family_scores(rows)
     data = summary.as_json()
     data["families"] = [s.as_json() for s in scores]
+    data["provenance_disagreements"] = provenance
     (out / "summary.json").write_text(json.dumps(data, indent=2), encoding="utf-8")
     if csv_format == "upstream":
         write_upstream_csv(rows, out / "results.csv")
@@ -113,7 +124,15 @@ def render(
     figures = draw_figures(summary, out) if summary.table else None
     capability = draw_capability(scores, out) if summary.table else None
     report = out / "report.md"
-    text = markdown(summary, figures, title=title, csv_format=csv_format, scores=scores, capability=capability)
+    text = markdown(
+        summary,
+        figures,
+        title=title,
+        csv_format=csv_format,
+        scores=scores,
+        capability=capability,
+        provenance=provenance,
+    )
     report.write_text(text, encoding="utf-8")
     return report
 

@@ -26,6 +26,8 @@ COMMANDS: dict[str, str] = {
     "bench": "bench",
     "report": "report",
     "view": "view",
+    "leaderboard": "leaderboard",
+    "submit": "submit",
     "suite": "suite",
     "contract": "contract",
     "serve": "serve",

@@ -14,15 +14,13 @@ from collections.abc import Iterable, Sequence
 from functools import cache
 from pathlib import Path
 
+from robocog.agent.policies import is_offline
 from robocog.shared.errors import ConfigError
 from robocog.shared.process import probe_bind
 
 #: A word a user means as a task id, not as an instruction: one token with a digit and no spaces
 #: (T1, t1, T3, task2, dev-put_away-000). A free-text instruction has spaces or no digit.
 _ID_SHAPE = re.compile(r"^[A-Za-z][A-Za-z0-9_\-]*\d[A-Za-z0-9_\-]*$")
-
-#: The model routes that run offline, without LiteLLM's provider table (robocog's own).
-OFFLINE_PREFIXES = ("scripted/", "replay/")
 
 
 @cache
@@ -78,7 +76,7 @@ def check_model(model: str, api_base: str | None, api_key: str | None = None) ->
     """`ConfigError` when LiteLLM cannot tell which provider serves `model` (a typo such as gpt4o),
     unless `api_base` names an OpenAI-compatible server, or when a cloud model's key is missing.
     Imports LiteLLM (seconds) except for the offline models."""
-    if model.startswith(OFFLINE_PREFIXES) or api_base:
+    if is_offline(model) or api_base:
         return
     from robocog.agent.client.model import check_credentials, configured_litellm
     from robocog.shared.errors import ModelServiceError

@@ -27,11 +27,14 @@ def main(args: argparse.Namespace) -> int:
     """Run `robocog report RESULTS`; returns the exit code."""
     from pydantic import ValidationError
 
+    from robocog.agent.analysis.provenance import disagreements
     from robocog.agent.analysis.report import render
     from robocog.agent.analysis.results_file import load_rows
 
     try:
         rows = load_rows(args.results)
+        for line in disagreements(rows):
+            print(f"robocog: warning: {args.results}: {line}", file=sys.stderr)
         path = render(
             rows, args.out, title=args.title or f"robocog evaluation: {args.results.name}", csv_format=args.csv
         )

@@ -31,26 +31,43 @@ PROTOCOL_NOTES = {
 }
 
 
+#: What `robocog chat` says before its first prompt.
+CHAT_GREETING = "Type a task (or a task id such as T1); an empty line, /quit or Ctrl-D ends the session."
+
+
 def add_parser(sub: Any) -> argparse.ArgumentParser:
-    p: argparse.ArgumentParser = sub.add_parser(
-        "run",
-        help="run one or more tasks in order, in one world",
-        epilog=EPILOG,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    p = add_session_parser(sub, "run", "run one or more tasks in order, in one world")
     p.add_argument("tasks", nargs="+", metavar="TASK", help="an instruction, or a task id such as T1")
+    return p
+
+
+def main(args: argparse.Namespace) -> int:
+    return start(args, args.tasks)
+
+
+def add_session_parser(sub: Any, name: str, help: str) -> argparse.ArgumentParser:
+    """The subcommand `name` of a session with one robot (`run`, `chat`): the model, the connection
+    and the live viewer's options."""
+    p: argparse.ArgumentParser = sub.add_parser(
+        name, help=help, epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     add_model(p)
     add_connection(p)
     add_view(p)
     return p
 
 
-def main(args: argparse.Namespace) -> int:
+def start(args: argparse.Namespace, tasks: Sequence[str] | None) -> int:
+    """What `run` and `chat` do: check the options (and the tasks' words), say what the run uses,
+    import LiteLLM while the server starts, then run `tasks` (None: those typed at the prompt)."""
     check_options(args)
-    check_task_words(args.tasks)
+    if tasks is not None:
+        check_task_words(tasks)
     prepare(args)
     loader = preload_litellm(args.model)  # seconds: start at once
-    return asyncio.run(run_tasks(args, args.tasks, loader))
+    if tasks is None:
+        print(CHAT_GREETING)
+    return asyncio.run(run_tasks(args, tasks, loader))
 
 
 def prepare(args: argparse.Namespace) -> None:

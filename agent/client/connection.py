@@ -23,7 +23,7 @@ from mcp_types import Tool
 
 from robocog.shared import __version__
 from robocog.shared.errors import ServerConnectionError
-from robocog.shared.protocol import FLEET_FULL
+from robocog.shared.protocol import CONTRACT_VERSION_PATTERN, FLEET_FULL
 
 
 def default_server_command() -> list[str]:
@@ -66,6 +66,8 @@ class Robot:
     tasks: dict[str, str]  # task id -> prompt (from robocog://tasks)
     label: str
     requires: dict[str, list[str]] = field(default_factory=dict)  # task id -> tasks that must succeed first
+    catalogue: dict[str, dict[str, Any]] = field(default_factory=dict)  # task id -> its robocog://tasks entry
+    contract: str | None = None  # the MCP contract version the server announces in its instructions
 
     _prompts: dict[str, str] = field(default_factory=dict)
 
@@ -102,6 +104,33 @@ class Robot:
         return next((tid for tid, text in self.tasks.items() if " ".join(text.split()).casefold() == wanted), None)
 
 
+def spawn_env(extra: dict[str, str] | None = None) -> dict[str, str]:
+    """The environment of a server this client spawns: no telemetry, the caller's `ROBOCOG_*`
+    settings, then `extra`."""
+    return {
+        "ANONYMIZED_TELEMETRY": "False",
+        **{k: v for k, v in os.environ.items() if k.startswith("ROBOCOG_")},
+        **(extra or {}),
+    }
+
+
+class ServerLog:
+    """A spawned server's stderr, in a temporary file (its start-up chatter stays off the terminal):
+    its last lines quoted when the server fails; the file is deleted when closed."""
+
+    def __init__(self, prefix: str) -> None:
+        self.file: IO[str] = tempfile.NamedTemporaryFile("w+", prefix=prefix, suffix=".log", delete=False)  # noqa: SIM115
+
+    def tail(self, lines: int) -> str:
+        """The last `lines` lines written so far."""
+        self.file.flush()
+        return "\n".join(Path(self.file.name).read_text(encoding="utf-8", errors="replace").splitlines()[-lines:])
+
+    def close(self) -> None:
+        self.file.close()
+        Path(self.file.name).unlink(missing_ok=True)
+
+
 def leaf_message(exc: BaseException) -> str:
     """The innermost message of an exception (task groups wrap the real one)."""
     while isinstance(exc, BaseExceptionGroup) and exc.exceptions:
@@ -118,33 +147,26 @@ async def connect(spec: ServerSpec) -> AsyncIterator[Robot]:
     """
     from mcp.client.stdio import stdio_client
 
-    log: IO[str] | None = None
+    log: ServerLog | None = None
     if spec.url:
         target: Any = _http_transport(spec.url, spec.auth_token)
     else:
-        env = {
-            "ANONYMIZED_TELEMETRY": "False",
-            **{k: v for k, v in os.environ.items() if k.startswith("ROBOCOG_")},
-            **spec.env,
-        }
         command, *args = spec.command
-        params = StdioServerParameters(command=command, args=[*args, *spec.extra_args], env=env)
-        log = tempfile.NamedTemporaryFile("w+", prefix="robocog-server-", suffix=".log", delete=False)  # noqa: SIM115
-        target = stdio_client(params, errlog=cast(TextIO, log))  # a text file, in a wrapper that deletes it
+        params = StdioServerParameters(command=command, args=[*args, *spec.extra_args], env=spawn_env(spec.env))
+        log = ServerLog("robocog-server-")
+        target = stdio_client(params, errlog=cast(TextIO, log.file))  # a text file, in a wrapper that deletes it
     try:
         async with _session(target, spec) as robot:
             yield robot
     except Exception as exc:
         if log is None or isinstance(exc, ServerConnectionError):
             raise
-        log.flush()
-        tail = "\n".join(Path(log.name).read_text(encoding="utf-8", errors="replace").splitlines()[-15:])
+        tail = log.tail(15)
         where = f"; the end of its log:\n{tail}" if tail.strip() else " (it wrote nothing to stderr)"
         raise ServerConnectionError(f"the robot server `{spec.label}` failed: {leaf_message(exc)}{where}") from exc
     finally:
         if log is not None:
             log.close()
-            Path(log.name).unlink(missing_ok=True)
 
 
 @asynccontextmanager
@@ -185,13 +207,23 @@ async def _session(target: Any, spec: ServerSpec) -> AsyncIterator[Robot]:
         system_prompt = "\n".join(getattr(m.content, "text", "") for m in prompt.messages)
         tasks: dict[str, str] = {}
         requires: dict[str, list[str]] = {}
+        entries: dict[str, dict[str, Any]] = {}
         try:
             catalogue = await client.read_resource("robocog://tasks")
             for item in json.loads(getattr(catalogue.contents[0], "text", "[]")):
                 tasks[item["id"]] = item["prompt"]
                 requires[item["id"]] = [str(r) for r in item.get("requires") or []]
+                entries[item["id"]] = item
         except Exception:  # a server without the catalogue can still be driven
-            tasks, requires = {}, {}
+            tasks, requires, entries = {}, {}, {}
+        announced = CONTRACT_VERSION_PATTERN.search(client.instructions or "")
         yield Robot(
-            client=client, tools=tools, system_prompt=system_prompt, tasks=tasks, label=spec.label, requires=requires
+            client=client,
+            tools=tools,
+            system_prompt=system_prompt,
+            tasks=tasks,
+            label=spec.label,
+            requires=requires,
+            catalogue=entries,
+            contract=announced.group(1) if announced else None,
         )

@@ -25,7 +25,8 @@ from robocog.agent.client.settings import AgentSettings
 from robocog.agent.client.trace_sinks import Trace
 from robocog.agent.study_protocols import DESCRIPTION_URI, PROTOCOLS, EvalProtocol
 from robocog.shared.errors import ModelServiceError, ServerConnectionError
-from robocog.shared.protocol import CONTROL_TOOLS, FLEET_FULL, FURNITURE_TOOLS, MODEL_META_KEY, VISION_TOOLS
+from robocog.shared.protocol import FLEET_FULL, FURNITURE_TOOLS, MODEL_META_KEY
+from robocog.shared.provenance import function_definition, offered
 from robocog.shared.trace import ModelTurn, Reinvoked, RunFinished, RunStarted, ToolCall, ToolResult, Verdict
 
 Outcome = Literal["ended", "stopped", "error"]
@@ -64,18 +65,9 @@ def function_definitions(tools: list[Tool], *, vision: bool = False, furniture: 
     with `vision` (a text-only model would get nothing from it), open and close only with `furniture`
     (the paper's protocol offers its eight tools)."""
     return [
-        {
-            "type": "function",
-            "function": {
-                "name": t.name,
-                "description": t.description or t.title or t.name,
-                "parameters": t.input_schema or {"type": "object", "properties": {}},
-            },
-        }
+        function_definition(t.name, t.description or t.title, t.input_schema)
         for t in tools
-        if t.name not in CONTROL_TOOLS
-        and (vision or t.name not in VISION_TOOLS)
-        and (furniture or t.name not in FURNITURE_TOOLS)
+        if offered(t.name, vision=vision, furniture=furniture)
     ]
 
 
@@ -111,7 +103,7 @@ async def run_episode(
     conversation); it is extended in place, and an empty one starts with the system prompt.
     """
     started = time.monotonic()
-    furniture = protocol.offers_furniture and await _world_has_furniture(client, tools)
+    furniture = protocol.offers_furniture and await world_has_furniture(client, tools)
     definitions = function_definitions(tools, vision=settings.vision and protocol.offers_camera, furniture=furniture)
     names = {d["function"]["name"] for d in definitions}
     trace.emit(
@@ -209,7 +201,7 @@ async def run_episode(
 STATE_URI = "robocog://world/state"
 
 
-async def _world_has_furniture(client: Client, tools: list[Tool]) -> bool:
+async def world_has_furniture(client: Client, tools: list[Tool]) -> bool:
     """Whether to offer open and close: only in a world with furniture that opens (its ground truth
     lists some), so a model in a world without (the paper's household, the robocog-v1 suite) is offered
     what it was before they existed. A server whose state cannot be read keeps what it publishes."""

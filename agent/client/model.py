@@ -15,6 +15,9 @@ What `complete()` guarantees, whatever the provider:
 - The cost of a turn comes from LiteLLM's local cost map when the model is in it, else it is None:
   never a guess (LiteLLM prices unknown Ollama models at 0.0; that becomes None here).
 
+The offline models (`scripted/...`, `replay/...`) are answered in-process
+(`robocog.agent.policies.offline`), without LiteLLM: a scripted run never imports it.
+
 Import this module only where a model is called: importing LiteLLM costs seconds.
 """
 
@@ -29,6 +32,7 @@ from functools import cache
 from typing import TYPE_CHECKING, Any
 
 from robocog.agent.client.model_errors import classify, missing_keys
+from robocog.agent.policies.offline import OfflineModelError, is_offline, offline_turn
 from robocog.shared.errors import ModelServiceError
 
 if TYPE_CHECKING:
@@ -63,7 +67,11 @@ def configured_litellm() -> Any:
 def warm_up_litellm(models: Iterable[str] = ()) -> None:
     """Import LiteLLM and what its first call with tools loads (about 1-2 s), so that no model turn
     pays for it: the offline models, the MCP-tools check LiteLLM makes on every call with tools,
-    and, for each of `models`, its route (the OpenAI SDK's resources for `openai/...`)."""
+    and, for each of `models`, its route (the OpenAI SDK's resources for `openai/...`). Nothing
+    when every model is offline: those never import LiteLLM."""
+    models = [m for m in models if not is_offline(m)]
+    if not models:
+        return
     with contextlib.suppress(Exception):  # a real failure shows on the first real call
         litellm = configured_litellm()
         litellm.completion(model="scripted/refuser", messages=[{"role": "user", "content": "warm up"}])
@@ -89,7 +97,7 @@ def check_credentials(model: str, api_base: str | None, api_key: str | None = No
 
     Nothing to check when a key is given, or a server is (`api_base`: a local server needs no key,
     and one that does gets the key given or the placeholder)."""
-    if api_key or api_base or _route(model)[1] in KEYLESS_ROUTES:
+    if api_key or api_base or is_offline(model) or _route(model)[1] in KEYLESS_ROUTES:
         return
     missing = missing_keys(model)
     if missing:
@@ -230,7 +238,10 @@ def _call_arguments(settings: AgentSettings) -> dict[str, Any]:
 
 
 async def complete(settings: AgentSettings, messages: list[dict[str, Any]], tools: list[dict[str, Any]]) -> Any:
-    """One model turn: a LiteLLM call, retried as the failure deserves; raises `ModelServiceError`."""
+    """One model turn: a LiteLLM call, retried as the failure deserves; raises `ModelServiceError`.
+    An offline model answers in-process (no LiteLLM); what it refuses is never retried."""
+    if is_offline(settings.model):
+        return await _offline(settings, messages)
     litellm = configured_litellm()
     kwargs = _call_arguments(settings)
     for attempt in range(settings.retries + 1):
@@ -256,6 +267,20 @@ async def complete(settings: AgentSettings, messages: list[dict[str, Any]], tool
             hidden["response_cost"] = None  # not in the cost map: unknown, not free
         return response
     raise AssertionError("unreachable")
+
+
+async def _offline(settings: AgentSettings, messages: list[dict[str, Any]]) -> Any:
+    """An offline model's turn, after its latency (scripted models' `latency_s`)."""
+    params: dict[str, Any] = dict(settings.params)
+    if settings.seed is not None:
+        params["seed"] = settings.seed
+    try:
+        response, delay = offline_turn(settings.model, messages, params)
+    except OfflineModelError as exc:
+        raise ModelServiceError(f"{settings.model} refused the request: {exc}") from None
+    if delay:
+        await asyncio.sleep(delay)
+    return response
 
 
 # --- pictures ------------------------------------------------------------------------------------

@@ -17,24 +17,23 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import re
 import sys
 import tempfile
 from collections.abc import AsyncIterator, Awaitable, Callable
 from contextlib import asynccontextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import IO, TYPE_CHECKING, Any, TextIO, cast
+from typing import TYPE_CHECKING, Any, TextIO, cast
 
 from robocog.agent.contract.diff import EXIT_OK, EXIT_UNREACHABLE, SECTIONS, Change, compare_contracts, report
 from robocog.shared.errors import ServerConnectionError
+from robocog.shared.protocol import CONTRACT_VERSION_PATTERN
 
 if TYPE_CHECKING:  # `robocog --help` builds this parser: the MCP SDK is imported only to connect
     from mcp import Client
 
 #: The contract version in a server's instructions: "MCP contract 1.0", "contract 2.3".
-VERSION_PATTERN = re.compile(r"\bcontract\s+v?(\d+(?:\.\d+)+)\b", re.IGNORECASE)
+VERSION_PATTERN = CONTRACT_VERSION_PATTERN
 
 
 def shipped_contract_path(profile: str = "default") -> Path:
@@ -153,16 +152,16 @@ async def open_client(target: Target) -> AsyncIterator[Client]:
     from mcp import Client
     from mcp.client.stdio import StdioServerParameters, stdio_client
 
-    from robocog.agent.client.connection import leaf_message
+    from robocog.agent.client.connection import ServerLog, leaf_message, spawn_env
 
-    log: IO[str] | None = None
+    log: ServerLog | None = None
     if target.url:
         transport: Any = target.url
     else:
-        env = {"ANONYMIZED_TELEMETRY": "False", **{k: v for k, v in os.environ.items() if k.startswith("ROBOCOG_")}}
         command, *args = target.command
-        log = tempfile.NamedTemporaryFile("w+", prefix="robocog-contract-", suffix=".log", delete=False)  # noqa: SIM115
-        transport = stdio_client(StdioServerParameters(command=command, args=args, env=env), errlog=cast(TextIO, log))
+        log = ServerLog("robocog-contract-")
+        params = StdioServerParameters(command=command, args=args, env=spawn_env())
+        transport = stdio_client(params, errlog=cast(TextIO, log.file))
     entered = False
     try:
         async with Client(transport) as client:
@@ -171,16 +170,12 @@ async def open_client(target: Target) -> AsyncIterator[Client]:
     except Exception as exc:
         if entered:
             raise
-        where = ""
-        if log is not None:
-            log.flush()
-            tail = "\n".join(Path(log.name).read_text(encoding="utf-8", errors="replace").splitlines()[-10:])
-            where = f"; the end of its log:\n{tail}" if tail.strip() else ""
+        tail = "" if log is None else log.tail(10)
+        where = f"; the end of its log:\n{tail}" if tail.strip() else ""
         raise ServerConnectionError(f"could not connect to `{target.label}`: {leaf_message(exc)}{where}") from exc
     finally:
         if log is not None:
             log.close()
-            Path(log.name).unlink(missing_ok=True)
 
 
 # --- exercise ------------------------------------------------------------------------------------

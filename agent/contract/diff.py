@@ -1,7 +1,8 @@
 """How two MCP contracts differ: every difference from a baseline to the live contract, classified.
 
 - breaking: a tool, resource, template, prompt or server capability removed (a rename reads as
-  removed + added); a new required argument or an optional one made required; an argument removed,
+  removed + added); a rule (`RULES`: a capability that binds how a client must behave) added or
+  removed; a new required argument or an optional one made required; an argument removed,
   its type narrowed, an enum value removed or a bound tightened; an output field removed, made
   optional or retyped (its type widened, an enum value added); an annotation weakened (readOnlyHint
   or idempotentHint true → false, destructiveHint or openWorldHint false → true); a resource's MIME
@@ -23,6 +24,15 @@ from typing import Any, Literal
 SECTIONS: dict[str, str] = {"tools": "name", "resources": "uri", "resourceTemplates": "uriTemplate", "prompts": "name"}
 
 Kind = Literal["breaking", "compatible", "ok"]
+
+#: Capabilities that publish a rule a client must follow, not a feature it may use: adding one breaks
+#: the clients that did otherwise, and so does dropping it (clients that follow it now meet a server
+#: that does not). Each maps to what it binds, for the checker's line.
+RULES: dict[str, str] = {
+    "experimental.robocog/driver.issued": (
+        "a client without a session drives with the id the server issues, never with a name it gives itself"
+    ),
+}
 
 #: Exit codes of `robocog contract check`.
 EXIT_OK, EXIT_BREAKING, EXIT_UNREACHABLE = 0, 1, 2
@@ -320,9 +330,11 @@ def compare_contracts(baseline: dict[str, Any], live: dict[str, Any]) -> list[Ch
     old_capabilities, new_capabilities = set(baseline.get("capabilities") or []), set(live.get("capabilities") or [])
     for name in sorted(old_capabilities ^ new_capabilities):
         removed = name in old_capabilities
-        out.append(
-            Change("breaking" if removed else "compatible", f"capability {name}", "removed" if removed else "added")
-        )
+        what = "removed" if removed else "added"
+        if name in RULES:
+            out.append(Change("breaking", f"capability {name}", f"rule {what}: {RULES[name]}"))
+        else:
+            out.append(Change("breaking" if removed else "compatible", f"capability {name}", what))
     for section, key in SECTIONS.items():
         old = {entry[key]: entry for entry in baseline.get(section) or []}
         new = {entry[key]: entry for entry in live.get(section) or []}

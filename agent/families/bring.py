@@ -25,11 +25,20 @@ def other_location(rng: random.Random, world: SceneNames, location: str | None) 
     return rng.choice(options) if options else None
 
 
+def item_elsewhere(
+    rng: random.Random, world: SceneNames, where: Where
+) -> tuple[str, tuple[str, str] | None, str | None]:
+    """A graspable item, where it is (None: held), and a location with place positions where it is
+    not (None: there is none)."""
+    item = rng.choice(world.graspable)
+    spot = where[item]
+    return item, spot, other_location(rng, world, spot[0] if spot else None)
+
+
 @draw("item_to_location", gives={"item": "mug", "location": "Front Door"})
 def item_to_location(rng: random.Random, world: SceneNames, where: Where, v: Variant) -> dict[str, Any] | None:
     """A graspable item and a location with place positions where it is not."""
-    item = rng.choice(world.graspable)
-    location = other_location(rng, world, (where[item] or ("", ""))[0])
+    item, _, location = item_elsewhere(rng, world, where)
     return None if location is None else {"item": item, "location": location}
 
 

@@ -7,7 +7,7 @@ import random
 import re
 from typing import Any
 
-from robocog.agent.families.bring import other_location
+from robocog.agent.families.bring import item_elsewhere
 from robocog.agent.families.reading import FirstLook, Goal, Request, object_phrase
 from robocog.agent.families.registry import draw, reader
 from robocog.agent.symbolic.world import SceneNames, Where
@@ -21,9 +21,7 @@ from robocog.shared.suite import Variant
 )
 def put_back(rng: random.Random, world: SceneNames, where: Where, v: Variant) -> dict[str, Any] | None:
     """An item a first task moves to a location; the second asks for it back where it was."""
-    item = rng.choice(world.graspable)
-    home = where[item]
-    location = other_location(rng, world, home[0] if home else None)
+    item, home, location = item_elsewhere(rng, world, where)
     if home is None or location is None:
         return None
     return {"item": item, "location": location, "home_location": home[0], "home_position": home[1]}

@@ -7,7 +7,7 @@ from __future__ import annotations
 import random
 from typing import Any
 
-from robocog.agent.families.bring import other_location
+from robocog.agent.families.bring import item_elsewhere, other_location
 from robocog.agent.families.registry import draw
 from robocog.agent.symbolic.world import SceneNames, Where
 from robocog.shared.suite import Variant
@@ -49,9 +49,7 @@ def description_to_location(rng: random.Random, world: SceneNames, where: Where,
 )
 def relation_to_location(rng: random.Random, world: SceneNames, where: Where, v: Variant) -> dict[str, Any] | None:
     """A graspable item named by the place position it starts on, and a location."""
-    item = rng.choice(world.graspable)
-    spot = where[item]
-    location = other_location(rng, world, spot[0] if spot else None)
+    item, spot, location = item_elsewhere(rng, world, where)
     if spot is None or location is None:
         return None
     return {"item": item, "item_location": spot[0], "item_position": spot[1], "location": location}

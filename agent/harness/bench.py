@@ -16,7 +16,8 @@ from robocog.agent.client.connection import ServerSpec, connect
 from robocog.agent.client.loop import run_episode
 from robocog.agent.client.settings import AgentSettings
 from robocog.agent.client.trace_sinks import Trace
-from robocog.shared.errors import ConfigError, ModelServiceError
+from robocog.shared.controls import EvalControls, mcp_call
+from robocog.shared.errors import ConfigError, ModelServiceError, ServerConnectionError
 from robocog.shared.trace import ModelTurn, ToolResult
 
 
@@ -39,22 +40,23 @@ async def bench(spec: ServerSpec, settings: AgentSettings, task_id: str, runs: i
         if prompt is None:
             raise ConfigError(f"the server has no task {task_id!r}; it has {', '.join(robot.tasks) or 'none'}")
         await robot.client.call_tool("look_around", {})  # the world is built
+        controls = EvalControls(mcp_call(robot.client, ServerConnectionError))
         episodes: list[float] = []
         model_ms: list[float] = []
         tools: dict[str, list[float]] = defaultdict(list)
         successes = 0
         calls = 0
         for _ in range(runs):
-            await robot.client.call_tool("clear_memory", {})
-            await robot.client.call_tool("reset_world", {})
+            await controls.clear_memory()
+            await controls.reset_world()
             trace = Trace()
             result = await run_episode(
                 robot.client, prompt, settings, trace, system_prompt=robot.system_prompt, tools=robot.tools
             )
             if result.error:
                 raise ModelServiceError(result.error)
-            verdict = await robot.client.call_tool("check_task", {"task_id": task_id})
-            successes += bool((verdict.structured_content or {}).get("success"))
+            verdict = await controls.check_task(task_id)
+            successes += verdict.success
             calls = result.tool_calls
             turns = [e for e in trace.events if isinstance(e, ModelTurn)]
             results = [e for e in trace.events if isinstance(e, ToolResult)]

@@ -34,7 +34,7 @@ from typing import Any
 
 from robocog.agent.analysis.taxonomy import annotate
 from robocog.agent.client.connection import Robot, ServerSpec, connect, leaf_message
-from robocog.agent.client.loop import finish, run_episode
+from robocog.agent.client.loop import finish, function_definitions, run_episode, world_has_furniture
 from robocog.agent.client.model import resolve_api_key
 from robocog.agent.client.settings import AgentSettings
 from robocog.agent.client.trace_sinks import Trace
@@ -46,6 +46,7 @@ from robocog.shared import __version__
 from robocog.shared.controls import EvalControls, mcp_call
 from robocog.shared.errors import ConfigError, ServerConnectionError
 from robocog.shared.evaluation import AttemptRow, EvalConfig, ModelSpec
+from robocog.shared.provenance import Provenance, sha256_of, text_sha256, tools_sha256
 from robocog.shared.trace import Verdict
 
 
@@ -213,6 +214,8 @@ class Runner:
             params=dict(spec.params),
             vision=spec.vision,
         )
+        system_prompt = await robot.prompt(self.protocol.system_prompt)
+        furniture = self.protocol.offers_furniture and await world_has_furniture(robot.client, robot.tools)
         base = {
             "model": spec.name,
             "trial": trial,
@@ -227,6 +230,7 @@ class Runner:
             "study": cfg.name,
             "model_id": spec.model,
             **self.suite.row_fields(task_id),
+            "provenance": self.provenance(robot, spec, task_id, system_prompt, furniture=furniture),
         }
         try:
             result = await run_episode(
@@ -234,7 +238,7 @@ class Runner:
                 prompt,
                 settings,
                 trace,
-                system_prompt=await robot.prompt(self.protocol.system_prompt),
+                system_prompt=system_prompt,
                 tools=robot.tools,
                 protocol=self.protocol,
                 conversation=conversation,
@@ -285,6 +289,27 @@ class Runner:
             error=result.error,
         )
         return annotate(row, trace.events)  # the error taxonomy and robot actions, from the trace
+
+    def provenance(
+        self, robot: Robot, spec: ModelSpec, task_id: str, system_prompt: str, *, furniture: bool = False
+    ) -> Provenance:
+        """What the attempt runs on: the tools as the model is offered them (open and close with
+        `furniture`: as `run_episode` decides), the system prompt, the task (its catalogue entry, or the
+        suite instance) and the model's sampling parameters."""
+        vision = spec.vision and self.protocol.offers_camera
+        definitions = function_definitions(robot.tools, vision=vision, furniture=furniture)
+        task = self.suite.spec(task_id) or robot.catalogue.get(task_id)
+        return Provenance(
+            contract=robot.contract,
+            tools=sorted(d["function"]["name"] for d in definitions),
+            tools_sha256=tools_sha256(definitions),
+            system_prompt=self.protocol.system_prompt,
+            system_prompt_sha256=text_sha256(system_prompt),
+            task_sha256=None if task is None else sha256_of(task),
+            suite=self.suite.suite if task_id in self.suite.instances else None,
+            params=dict(spec.params),
+            vision=vision,
+        )
 
     # --- workers ---------------------------------------------------------------------------------
 

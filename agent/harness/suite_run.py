@@ -39,6 +39,11 @@ class SuiteRun:
             return instance.prelude[int(n) - 1].prompt
         return None
 
+    def spec(self, task_id: str) -> dict[str, Any] | None:
+        """The instance `task_id` as JSON (what its provenance digests), None when it is not one."""
+        instance = self.instances.get(task_id)
+        return None if instance is None else instance.model_dump(mode="json")
+
     def row_fields(self, task_id: str) -> dict[str, Any]:
         """The fields an instance's row carries (none for a task of the catalogue)."""
         instance = self.instances.get(task_id)

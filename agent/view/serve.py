@@ -34,8 +34,9 @@ DEFAULT_PORT = 8767
 MAX_TRACE_BYTES = 20_000_000
 
 
-def report_html(markdown_text: str) -> str:
-    """The report's markdown as HTML (raw HTML in it is escaped), its figures served from /report/."""
+def report_html(markdown_text: str, prefix: str = "/report/") -> str:
+    """The report's markdown as HTML (raw HTML in it is escaped), its figures at `prefix` (served from
+    /report/; a static bundle's are in its report/ folder)."""
     from markdown_it import MarkdownIt
 
     md = MarkdownIt("js-default")
@@ -44,12 +45,12 @@ def report_html(markdown_text: str) -> str:
         for child in token.children or []:
             src = child.attrGet("src") if child.type == "image" else None
             if isinstance(src, str) and "/" not in src and ":" not in src:
-                child.attrSet("src", f"/report/{src}")
+                child.attrSet("src", f"{prefix}{src}")
     return str(md.renderer.render(tokens, md.options, {}))
 
 
 def attempt_json(index: int, row: AttemptRow, results_dir: Path) -> dict[str, Any]:
-    trace = _trace_path(row, results_dir)
+    trace = trace_path(row, results_dir)
     return {
         "index": index,
         "model": row.model,
@@ -75,7 +76,7 @@ def attempt_json(index: int, row: AttemptRow, results_dir: Path) -> dict[str, An
     }
 
 
-def _trace_path(row: AttemptRow, results_dir: Path) -> Path | None:
+def trace_path(row: AttemptRow, results_dir: Path) -> Path | None:
     if not row.trace:
         return None
     path = (results_dir / row.trace).resolve()
@@ -160,7 +161,7 @@ class ResultsViewer:
         index = request.path_params["index"]
         if not 0 <= index < len(self.rows):
             return None
-        path = _trace_path(self.rows[index], self.dir)
+        path = trace_path(self.rows[index], self.dir)
         return path if path is not None and path.is_file() else None
 
     async def trace(self, request: Request) -> Response:
@@ -182,12 +183,15 @@ class ResultsViewer:
 
 
 def view_command(args: argparse.Namespace) -> int:
-    """`robocog view RESULTS [--port P]`: serve the study until Ctrl-C."""
-    import uvicorn
-
+    """`robocog view RESULTS [--port P]`: serve the study until Ctrl-C; with `--bundle DIR`, write
+    it as a static site instead (`robocog.agent.view.bundle`)."""
     if not args.results.is_file():
         print(f"robocog: {args.results}: no such results file", file=sys.stderr)
         return 2
+    if args.bundle is not None:
+        return bundle_command(args)
+    import uvicorn
+
     try:
         viewer = ResultsViewer(args.results, title=args.title)
     except ValueError as exc:
@@ -211,4 +215,26 @@ def view_command(args: argparse.Namespace) -> int:
     finally:
         sock.close()
         viewer.close()
+    return 0
+
+
+def bundle_command(args: argparse.Namespace) -> int:
+    """`robocog view RESULTS --bundle DIR`: write the static bundle, say where and how big."""
+    from pydantic import ValidationError
+
+    from robocog.agent.view.bundle import write_bundle
+
+    try:
+        stats = write_bundle(args.results, args.bundle, title=args.title)
+    except (ValueError, ValidationError, OSError) as exc:
+        problem = " ".join(str(exc).split())
+        print(
+            f"robocog: {problem if problem.startswith(str(args.results)) else f'{args.results}: {problem}'}",
+            file=sys.stderr,
+        )
+        return 2
+    print(
+        f"bundle: {stats.index} ({stats.files} files, {stats.bytes / 1e6:.1f} MB, {stats.traces} traces, "
+        f"{stats.pictures} pictures, {stats.seconds:.1f} s); open it from disk or put the folder on any static host"
+    )
     return 0

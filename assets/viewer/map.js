@@ -71,16 +71,23 @@ window.RobocogMap = (function () {
     for (const l of scene.locations) {
       ctx.fillStyle = "#2b8a3e"; ctx.beginPath(); ctx.arc(T.px(l.x), T.py(l.y), 4.5 * d, 0, 2 * Math.PI); ctx.fill();
     }
-    // Location names start past the robot's footprint and are drawn last, with a halo: the robot
-    // standing at a location never hides the start of its name.
-    const clear = Math.max(7 * d, (Math.max(...scene.robot.size) / 2) * T.s + 4 * d);
+    // Location names start past the robot's footprint (the circle around it, whatever its yaw) and
+    // are drawn last, with a halo: the robot standing at a location never hides the start of its name.
+    // The canvas keeps the boxes it drew (dataset.labels, dataset.robot: canvas pixels), so a test can
+    // hold that no name starts under the robot.
+    const reach = (Math.hypot(...scene.robot.size) / 2) * T.s;
+    const clear = Math.max(7 * d, reach + 4 * d);
     const labels = () => {
       ctx.font = font(11); ctx.lineJoin = "round"; ctx.lineWidth = 3 * d; ctx.strokeStyle = "rgba(255,255,255,0.85)";
       ctx.fillStyle = "#1e6b2f";
+      const boxes = [];
       for (const l of scene.locations) {
-        ctx.strokeText(l.name, T.px(l.x) + clear, T.py(l.y) + 14 * d);
-        ctx.fillText(l.name, T.px(l.x) + clear, T.py(l.y) + 14 * d);
+        const x = T.px(l.x) + clear, y = T.py(l.y) + 14 * d;
+        ctx.strokeText(l.name, x, y);
+        ctx.fillText(l.name, x, y);
+        boxes.push({ name: l.name, x0: x, x1: x + ctx.measureText(l.name).width, y0: y - 11 * d, y1: y });
       }
+      canvas.dataset.labels = JSON.stringify(boxes);
     };
     if (!world) { labels(); return; }
     const robot = world.robot;
@@ -104,6 +111,7 @@ window.RobocogMap = (function () {
     }
     const [sx, sy] = scene.robot.size;
     const rx = T.px(robot.xyz[0]), ry = T.py(robot.xyz[1]);
+    canvas.dataset.robot = JSON.stringify({ x: rx, y: ry, r: reach });
     ctx.save(); ctx.translate(rx, ry); ctx.rotate(-robot.yaw);
     ctx.fillStyle = "rgba(31,111,235,0.9)"; ctx.fillRect((-sx / 2) * T.s, (-sy / 2) * T.s, sx * T.s, sy * T.s);
     ctx.strokeStyle = "#fff"; ctx.lineWidth = 2 * d;

@@ -1,8 +1,33 @@
 // The results page: a study's report, its attempts (filterable) and an attempt's trace, step by step.
+// Served by `robocog view` it asks the server (/api/...); in a static bundle (`robocog view --bundle`)
+// it reads window.ROBOCOG_BUNDLE (data/study.js) and loads each trace as a script (data/traces/N.js),
+// which works opened from file:// too, where a page may not fetch.
 "use strict";
 
 (function () {
   const $ = (id) => document.getElementById(id);
+  const bundle = window.ROBOCOG_BUNDLE || null;
+  const pathOf = (path) => path.split("/").map(encodeURIComponent).join("/");
+  const fileUrl = (index, path) => (bundle ? `files/${index}/${pathOf(path)}` : `/api/attempts/${index}/files/${pathOf(path)}`);
+
+  // An attempt's trace: {ok, body} as the server's answer would be.
+  async function loadTrace(index) {
+    if (!bundle) {
+      const r = await fetch(`/api/attempts/${index}/trace`);
+      return { ok: r.ok, body: await r.json() };
+    }
+    if (!(index in bundle.traces)) {
+      await new Promise((resolve) => {
+        const s = document.createElement("script");
+        s.src = `data/traces/${index}.js`;
+        s.onload = resolve;
+        s.onerror = resolve;
+        document.head.append(s);
+      });
+    }
+    const body = bundle.traces[index];
+    return body ? { ok: true, body } : { ok: false, body: { error: "this attempt has no trace file in the bundle" } };
+  }
   const state = { study: null, shown: [], open: null };
   window.robocogResults = state;
   const FILTERS = [["f-model", "model"], ["f-family", "family"], ["f-task", "task"], ["f-trial", "trial"], ["f-iteration", "iteration"], ["f-outcome", "outcome"]];
@@ -126,7 +151,7 @@
         details(li, ev.name, s);
         for (const path of ev.images || []) {
           const img = el("img");
-          img.src = `/api/attempts/${index}/files/${path.split("/").map(encodeURIComponent).join("/")}`;
+          img.src = fileUrl(index, path);
           img.alt = `${ev.name}: ${path}`;
           img.loading = "lazy";
           li.append(img);
@@ -180,8 +205,8 @@
     const pane = $("trace-pane");
     pane.replaceChildren(el("div", "muted", "loading the trace…"));
     const a = state.study.attempts[index];
-    const r = await fetch(`/api/attempts/${index}/trace`);
-    const body = await r.json();
+    const r = await loadTrace(index);
+    const body = r.body;
     pane.replaceChildren();
     const head = el("div", "trace-head");
     head.append(el("h2", null, `${a.model} · ${a.task} · trial ${a.trial} · iteration ${a.iteration}`));
@@ -209,8 +234,7 @@
   }
 
   async function start() {
-    const r = await fetch("/api/study", { cache: "no-store" });
-    const study = await r.json();
+    const study = bundle ? bundle.study : await (await fetch("/api/study", { cache: "no-store" })).json();
     state.study = study;
     document.title = `robocog · ${study.title}`;
     $("study-title").textContent = study.title;

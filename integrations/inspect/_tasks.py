@@ -67,7 +67,7 @@ SCENE = "household"
 #: What a tool call after end_task in the same turn gets instead of running (as in `robocog run`).
 NOT_RUN = "Not run: the task was ended with end_task."
 
-#: The robocog protocol's messages (the paper's protocol stays in `robocog eval`; see the README).
+#: The robocog protocol's messages (the paper's protocol stays in `robocog eval`; see docs/inspect.md).
 PROTOCOL = PROTOCOLS["robocog"]
 
 

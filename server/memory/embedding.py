@@ -10,6 +10,7 @@ from __future__ import annotations
 import hashlib
 import os
 import threading
+from collections import OrderedDict
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -148,24 +149,59 @@ def _embed_batch(
     return (pooled / np.clip(norms, 1e-12, None)).astype(np.float32)
 
 
+#: How many recent texts keep their vectors (1.5 KB each): an episode embeds its task when it
+#: searches memory and again when `end_task` stores it, and a study repeats the same few tasks.
+CACHE_SIZE = 512
+_cache: OrderedDict[str, npt.NDArray[np.float32]] = OrderedDict()
+_cache_lock = threading.Lock()
+
+
+def _cached(items: list[str]) -> dict[int, npt.NDArray[np.float32]]:
+    with _cache_lock:
+        found = {}
+        for i, text in enumerate(items):
+            vector = _cache.get(text)
+            if vector is not None:
+                _cache.move_to_end(text)
+                found[i] = vector
+        return found
+
+
+def _remember(items: list[str], vectors: npt.NDArray[np.float32]) -> None:
+    with _cache_lock:
+        for text, vector in zip(items, vectors, strict=True):
+            _cache[text] = vector.copy()
+            _cache.move_to_end(text)
+        while len(_cache) > CACHE_SIZE:
+            _cache.popitem(last=False)
+
+
 def embed(texts: Sequence[str], *, batch_size: int = BATCH_SIZE) -> npt.NDArray[np.float32]:
     """Embed texts into unit-norm 384-d float32 vectors, shape ``(len(texts), 384)``.
 
     Only the first `EMBED_CHARS` characters of a text are tokenized: the model reads its first
     `MAX_TOKENS` tokens only, and the tokenizer would otherwise normalise and split the whole text
-    before truncating it (seconds for megabytes)."""
+    before truncating it (seconds for megabytes). The vectors of the last `CACHE_SIZE` texts are
+    kept, so a text embedded again costs nothing."""
     if isinstance(texts, str):
         raise TypeError("embed() takes a list of strings, not a single string")
     items = [text[:EMBED_CHARS] for text in texts]
     out = np.empty((len(items), DIMENSIONS), dtype=np.float32)
     if not items:
         return out
+    known = _cached(items)
+    for i, vector in known.items():
+        out[i] = vector
+    missing = [i for i in range(len(items)) if i not in known]
+    if not missing:
+        return out
     session, tokenizer, names = _runtime_objects()
     # Sort by length so each batch pads to similar lengths; results go back in input order.
-    order = sorted(range(len(items)), key=lambda i: len(items[i]))
+    order = sorted(missing, key=lambda i: len(items[i]))
     for start in range(0, len(order), batch_size):
         chunk = order[start : start + batch_size]
         out[chunk] = _embed_batch(session, tokenizer, names, [items[i] for i in chunk])
+    _remember([items[i] for i in missing], out[missing])
     return out
 
 

@@ -34,8 +34,8 @@ from robocog.server.events import EventBus
 from robocog.shared.web import LOOPBACK_HOSTS, VIEWER_STATIC
 
 if TYPE_CHECKING:
-    from robocog.server.app import AppState
     from robocog.server.session import RobotSession
+    from robocog.server.state import AppState
 
 logger = logging.getLogger("robocog.server.viewer")
 

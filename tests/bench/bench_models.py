@@ -1,4 +1,4 @@
-"""Model-service figures, against the loopback fake model service (`tests/fake_llm.py`):
+"""Model-service figures, against the loopback fake model service (`tests/fake_llm/`):
 
 - the client's own time per model turn (the loop's `complete()`: LiteLLM, the provider's SDK, the
   HTTP round trip on loopback), the fake server's own time on each request excluded

@@ -14,32 +14,32 @@ from __future__ import annotations
 
 import json
 import os
-import re
 import signal
-import socket
 import statistics
 import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
-from typing import Any, TextIO, cast
+from typing import Any
 
 import anyio
-import httpx
 from mcp import Client
-from mcp.client.stdio import StdioServerParameters, stdio_client
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository, for tests.helpers
-from tests.helpers import free_port, server_command, server_env
+from tests.helpers import (
+    fleet_processes,
+    http_server_process,
+    http_session,
+    live_server,
+    raw_call,
+    raw_initialize,
+    rss_mb,
+)
 
 MOVES = 40
 ROUNDS = 5
 READERS = int(os.environ.get("BENCH_VIEWER_READERS", "300"))
-
-
-def _rss_mb(pid: int) -> float:
-    return int(Path(f"/proc/{pid}/statm").read_text().split()[1]) * 4096 / 1e6
 
 
 async def _move_p50(client: Client) -> float:
@@ -53,16 +53,8 @@ async def _move_p50(client: Client) -> float:
 
 
 async def _viewer() -> dict[str, Any]:
-    command, *rest = server_command()
-    with tempfile.TemporaryDirectory() as tmp, tempfile.NamedTemporaryFile("w+", suffix=".log") as log:
-        args = [*rest, "--view", "0", "--data-dir", str(Path(tmp) / "m")]
-        params = StdioServerParameters(command=command, args=args, env={"ANONYMIZED_TELEMETRY": "False"})
-        async with Client(stdio_client(params, errlog=cast(TextIO, log))) as client:
-            url = None
-            while url is None:
-                found = re.search(r"live viewer at (http://127\.0\.0\.1:\d+/)", Path(log.name).read_text())
-                url = found.group(1) if found else None
-                await anyio.sleep(0.05)
+    with tempfile.TemporaryDirectory() as tmp:
+        async with live_server(Path(tmp) / "m") as (client, url):
             await client.call_tool("look_around", {})
             # alternated rounds: this machine's noise (another suite, other processes) hits both alike
             withouts, withs = [], []
@@ -116,59 +108,21 @@ anyio.run(main, sys.argv[1], int(sys.argv[2]))
 """
 
 
-def _listening(port: int) -> bool:
-    with socket.socket() as s:
-        return s.connect_ex(("127.0.0.1", port)) == 0
-
-
-def _children(pid: int) -> list[int]:
-    found = []
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        try:
-            ppid = int(stat.read_text().rsplit(")", 1)[-1].split()[1])
-            cmdline = (stat.parent / "cmdline").read_bytes()
-        except (OSError, ValueError):
-            continue
-        if ppid == pid and b"robocog.server.cli" in cmdline:
-            found.append(int(stat.parent.name))
-    return sorted(found)
-
-
-INIT = {
-    "jsonrpc": "2.0",
-    "id": 1,
-    "method": "initialize",
-    "params": {"protocolVersion": "2025-11-25", "capabilities": {}, "clientInfo": {"name": "bench", "version": "1"}},
-}
-HEADERS = {"accept": "application/json, text/event-stream", "content-type": "application/json"}
-
-
 def _drive(url: str) -> bool:
     """A new session that makes a call: True when it got a robot."""
-    answer = httpx.post(url, json=INIT, headers=HEADERS, timeout=30)
+    answer = raw_initialize(url)
     if answer.status_code != 200:
         return False
-    headers = HEADERS | {"mcp-session-id": answer.headers["mcp-session-id"], "mcp-protocol-version": "2025-11-25"}
-    httpx.post(url, json={"jsonrpc": "2.0", "method": "notifications/initialized"}, headers=headers, timeout=30)
-    call = {"jsonrpc": "2.0", "id": 2, "method": "tools/call", "params": {"name": "look_around", "arguments": {}}}
-    answer = httpx.post(url, json=call, headers=headers, timeout=60)
-    return answer.status_code == 200 and '"isError":true' not in answer.text.replace(" ", "")
+    called = raw_call(url, answer.headers["mcp-session-id"], "look_around")
+    return called.startswith("200 ") and '"isError":true' not in called.replace(" ", "")
 
 
 def _router() -> dict[str, Any]:
-    port = free_port()
     with tempfile.TemporaryDirectory() as tmp:
         log = Path(tmp) / "router.log"
-        command = [*server_command(), "--transport", "http", "--port", str(port), "--robots", "4", "--processes", "2"]
-        with log.open("wb") as out:
-            proc = subprocess.Popen(
-                [*command, "--data-dir", str(Path(tmp) / "m")], stdout=out, stderr=subprocess.STDOUT, env=server_env()
-            )
-        try:
-            while not _listening(port):
-                time.sleep(0.1)
-            url = f"http://127.0.0.1:{port}/mcp"
-            victim = _children(proc.pid)[0]
+        args = ("--robots", "4", "--processes", "2", "--data-dir", str(Path(tmp) / "m"))
+        with http_server_process(log, *args, timeout_s=600) as (url, proc):
+            victim = fleet_processes(proc.pid)[0]
             os.kill(victim, signal.SIGKILL)
             killed = time.monotonic()
             while "died (signal 9)" not in log.read_text(errors="replace"):
@@ -182,9 +136,6 @@ def _router() -> dict[str, Any]:
                 drivers += _drive(url)
             full = time.monotonic() - killed
             text = log.read_text(errors="replace")
-        finally:
-            proc.terminate()
-            proc.wait(timeout=60)
     return {
         "trust.router_kill9_noticed_s": round(noticed, 2),
         "trust.router_kill9_process_back_s": round(back, 2),
@@ -195,29 +146,20 @@ def _router() -> dict[str, Any]:
 
 
 async def _namespaces(open_namespaces: int) -> dict[str, Any]:
-    from mcp.client.streamable_http import streamable_http_client
-
-    port = free_port()
     with tempfile.TemporaryDirectory() as tmp:
-        args = ["--transport", "http", "--port", str(port), "--robots", "2", "--profile", "eval"]
-        args += ["--data-dir", str(Path(tmp) / "m"), "--memory-namespaces", str(open_namespaces)]
-        proc = subprocess.Popen([*server_command(), *args], stderr=subprocess.DEVNULL, env=server_env())
-        try:
-            while not _listening(port):
-                await anyio.sleep(0.1)
-            async with Client(streamable_http_client(f"http://127.0.0.1:{port}/mcp"), mode="legacy") as client:
+        args = ["--robots", "2", "--profile", "eval", "--data-dir", str(Path(tmp) / "m")]
+        args += ["--memory-namespaces", str(open_namespaces)]
+        with http_server_process(Path(tmp) / "server.log", *args, timeout_s=600) as (url, proc):
+            async with http_session(url) as client:
                 base = 0.0
                 for i in range(200):
                     if i == 20:
-                        base = _rss_mb(proc.pid)
+                        base = rss_mb(proc.pid)
                     await client.call_tool("reset_world", {"memory_namespace": f"unit-{i}"})
                     report = {"status": "success", "description": f"task {i}", "summary": "s"}
                     result = await client.call_tool("end_task", report)
                     assert not result.is_error
-                grown = _rss_mb(proc.pid) - base
-        finally:
-            proc.terminate()
-            proc.wait(timeout=30)
+                grown = rss_mb(proc.pid) - base
     return {f"trust.rss_growth_mb_200_namespaces_open_{open_namespaces}": round(grown, 1)}
 
 

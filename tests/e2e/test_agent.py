@@ -23,7 +23,7 @@ from robocog.agent.client.loop import function_definitions, run_episode
 from robocog.agent.client.model import check_credentials
 from robocog.agent.client.settings import AgentSettings
 from robocog.agent.client.trace_sinks import Trace
-from robocog.agent.policies.providers import _response, register
+from robocog.agent.policies.providers import model_response, register
 from robocog.server.app import build_server
 from robocog.server.config import SessionConfig
 from robocog.shared.errors import ModelServiceError
@@ -133,7 +133,7 @@ class CannedTurns(CustomLLM):
         turn = self.turns[min(len(self.seen) - 1, len(self.turns) - 1)]
         if isinstance(turn, Exception):
             raise turn
-        return _response(model, turn, 0)
+        return model_response(model, turn, 0)
 
     async def acompletion(self, model: str, messages: list, *args: Any, **kwargs: Any) -> ModelResponse:
         return self.completion(model, messages)

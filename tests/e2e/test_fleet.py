@@ -7,13 +7,11 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
-from collections.abc import AsyncIterator, Iterator
-from contextlib import asynccontextmanager
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import anyio
-import httpx
 import pytest
 from mcp import Client
 
@@ -24,12 +22,11 @@ from robocog.server.fleet import Fleet, FleetFull
 from robocog.server.ownership import Driver
 from robocog.shared.evaluation import AttemptRow, EvalConfig
 from robocog.shared.protocol import DRIVER_META_KEY as DRIVER
-from tests.helpers import free_port, http_server
+from tests.helpers import call_ok, free_port, http_server, http_session, raw_initialize
 
 pytestmark = pytest.mark.anyio
 
 ROBOTS = 3
-CLIENT = {"protocolVersion": "2025-11-25", "capabilities": {}, "clientInfo": {"name": "probe", "version": "1"}}
 
 
 @pytest.fixture(scope="module")
@@ -40,69 +37,53 @@ def fleet_url(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
         yield url
 
 
-@asynccontextmanager
-async def session(url: str) -> AsyncIterator[Client]:
-    """An MCP session (initialize handshake) over HTTP: one driver."""
-    from mcp.client.streamable_http import streamable_http_client
-
-    async with Client(streamable_http_client(url), mode="legacy") as client:
-        yield client
-
-
-async def call(client: Client, tool: str, **arguments: Any) -> dict[str, Any]:
-    result = await client.call_tool(tool, arguments)
-    assert not result.is_error, result.content
-    assert isinstance(result.structured_content, dict)
-    return result.structured_content
-
-
 async def robot_location(client: Client) -> str:
     contents = (await client.read_resource("robocog://world/state")).contents
     return str(json.loads(contents[0].text)["robot"]["location"])  # type: ignore[union-attr]
 
 
 async def test_each_session_drives_its_own_world(fleet_url: str) -> None:
-    async with session(fleet_url) as a, session(fleet_url) as b:
-        await call(a, "move_to", location="Kitchen Table")
-        await call(a, "grab", object="mug")
+    async with http_session(fleet_url) as a, http_session(fleet_url) as b:
+        await call_ok(a, "move_to", location="Kitchen Table")
+        await call_ok(a, "grab", object="mug")
         # b acts too (no lease between robots of a fleet) and sees its own, untouched world
-        await call(b, "move_to", location="Living Room")
+        await call_ok(b, "move_to", location="Living Room")
         assert await robot_location(a) == "Kitchen Table"
         assert await robot_location(b) == "Living Room"
-        seen = await call(b, "look_around")
+        seen = await call_ok(b, "look_around")
         assert "mug" in json.dumps(seen), "b's mug is still on b's kitchen table"
-        await call(a, "add_to_scratchpad", text="a's note")
-        pad = await call(b, "view_scratchpad")
+        await call_ok(a, "add_to_scratchpad", text="a's note")
+        pad = await call_ok(b, "view_scratchpad")
         assert "a's note" not in json.dumps(pad)
 
 
 async def test_memory_is_shared_by_namespace_and_private_otherwise(fleet_url: str) -> None:
-    async with session(fleet_url) as a, session(fleet_url) as b:
-        await call(a, "reset_world", memory_namespace="fleet-trial-1")
-        await call(a, "clear_memory")
-        await call(b, "reset_world", memory_namespace="fleet-trial-2")
-        await call(b, "clear_memory")
-        await call(a, "end_task", status="failure", description="grasp the TV", summary="the TV is too heavy")
-        found = await call(b, "search_memory", query="grasp the TV")
+    async with http_session(fleet_url) as a, http_session(fleet_url) as b:
+        await call_ok(a, "reset_world", memory_namespace="fleet-trial-1")
+        await call_ok(a, "clear_memory")
+        await call_ok(b, "reset_world", memory_namespace="fleet-trial-2")
+        await call_ok(b, "clear_memory")
+        await call_ok(a, "end_task", status="failure", description="grasp the TV", summary="the TV is too heavy")
+        found = await call_ok(b, "search_memory", query="grasp the TV")
         assert found["results"] == [], "another namespace: nothing of a's"
-        await call(b, "reset_world", memory_namespace="fleet-trial-1")
-        found = await call(b, "search_memory", query="grasp the TV")
+        await call_ok(b, "reset_world", memory_namespace="fleet-trial-1")
+        found = await call_ok(b, "search_memory", query="grasp the TV")
         assert [r["summary"] for r in found["results"]] == ["the TV is too heavy"]
 
 
 async def test_past_the_cap_a_session_is_told_why_and_a_freed_robot_comes_back_new(fleet_url: str) -> None:
-    async with session(fleet_url) as a, session(fleet_url) as b, session(fleet_url) as c:
+    async with http_session(fleet_url) as a, http_session(fleet_url) as b, http_session(fleet_url) as c:
         for client in (a, b, c):
-            await call(client, "look_around")
-        await call(c, "move_to", location="Kitchen Door")
-        await call(c, "add_to_scratchpad", text="c was here")
-        async with session(fleet_url) as d:
+            await call_ok(client, "look_around")
+        await call_ok(c, "move_to", location="Kitchen Door")
+        await call_ok(c, "add_to_scratchpad", text="c was here")
+        async with http_session(fleet_url) as d:
             refused = await d.call_tool("look_around", {})
             assert refused.is_error
             text = refused.content[0].text  # type: ignore[union-attr]
             assert f"all {ROBOTS} robots of this server are driven by other sessions" in text
     # all have gone; a newcomer gets one of their robots, recycled: the start state, an empty pad
-    async with session(fleet_url) as e:
+    async with http_session(fleet_url) as e:
         for _ in range(50):  # a session's robot is freed just after its DELETE is answered
             result = await e.call_tool("view_scratchpad", {})
             if not result.is_error:
@@ -114,11 +95,11 @@ async def test_past_the_cap_a_session_is_told_why_and_a_freed_robot_comes_back_n
 
 
 async def test_a_bad_namespace_is_refused_with_what_a_namespace_may_be(fleet_url: str) -> None:
-    async with session(fleet_url) as a:
+    async with http_session(fleet_url) as a:
         refused = await a.call_tool("reset_world", {"memory_namespace": "../etc"})
         assert refused.is_error
         assert "invalid memory namespace" in refused.content[0].text  # type: ignore[union-attr]
-        await call(a, "look_around")  # the robot is still fine
+        await call_ok(a, "look_around")  # the robot is still fine
 
 
 # --- a study on fleets gives the rows of a study on server processes ------------------------------------
@@ -166,9 +147,9 @@ async def test_a_study_drops_its_units_memory_namespaces_unless_told_to_keep_the
     from robocog.agent.harness.units import unit_namespace
 
     async def records_left(study: str) -> int:
-        async with session(fleet_url) as client:
-            await call(client, "reset_world", memory_namespace=unit_namespace(study, "scripted/overconfident", 0))
-            return int((await call(client, "clear_memory"))["removed"])
+        async with http_session(fleet_url) as client:
+            await call_ok(client, "reset_world", memory_namespace=unit_namespace(study, "scripted/overconfident", 0))
+            return int((await call_ok(client, "clear_memory"))["removed"])
 
     one = STUDY | {"trials": 1, "memory_iterations": 1, "tasks": ["T1"]}
     await run_eval(EvalConfig.model_validate(one | {"name": "dropped"}), tmp_path / "a.jsonl", urls=[fleet_url])
@@ -228,23 +209,16 @@ async def test_a_fleet_in_two_processes_behind_one_address(tmp_path: Path) -> No
     to different processes: each has room for one), and share memory across the processes."""
     args = ["--profile", "eval", "--robots", "2", "--processes", "2", "--data-dir", str(tmp_path / "memory")]
     with http_server(tmp_path / "server.log", *args) as url:
-        async with session(url) as a, session(url) as b:
-            await call(a, "move_to", location="Kitchen Door")
-            await call(b, "move_to", location="Living Room")
+        async with http_session(url) as a, http_session(url) as b:
+            await call_ok(a, "move_to", location="Kitchen Door")
+            await call_ok(b, "move_to", location="Living Room")
             assert (await robot_location(a), await robot_location(b)) == ("Kitchen Door", "Living Room")
-            await call(a, "reset_world", memory_namespace="across")
-            await call(b, "reset_world", memory_namespace="across")
-            await call(a, "end_task", status="failure", description="grasp the TV", summary="it is too heavy")
-            found = await call(b, "search_memory", query="grasp the TV")
+            await call_ok(a, "reset_world", memory_namespace="across")
+            await call_ok(b, "reset_world", memory_namespace="across")
+            await call_ok(a, "end_task", status="failure", description="grasp the TV", summary="it is too heavy")
+            found = await call_ok(b, "search_memory", query="grasp the TV")
             assert [r["summary"] for r in found["results"]] == ["it is too heavy"]
-            initialize = {
-                "jsonrpc": "2.0",
-                "id": 1,
-                "method": "initialize",
-                "params": CLIENT,
-            }
-            accept = {"accept": "application/json, text/event-stream"}
-            third = await anyio.to_thread.run_sync(lambda: httpx.post(url, json=initialize, headers=accept, timeout=30))
+            third = await anyio.to_thread.run_sync(raw_initialize, url)
             assert third.status_code == 503
             assert "all 2 robots of this server are driven by other sessions" in third.json()["error"]["message"]
     log = (tmp_path / "server.log").read_text(errors="replace")

@@ -23,6 +23,19 @@ def test_importing_the_package_defers_the_slow_imports() -> None:
     assert done.stdout.strip() == "[]"
 
 
+def test_a_scripted_run_never_imports_litellm(tmp_path: Path) -> None:
+    """The offline models are answered in-process: `robocog run T1 --model scripted/planner` pays
+    neither LiteLLM's import (seconds) nor its per-call wrapper."""
+    probe = (
+        "import sys; from robocog.agent.cli.main import main; code = main(['run', 'T1', '--model', "
+        f"'scripted/planner', '--quiet', '--data-dir', {str(tmp_path / 'memory')!r}]); "
+        "print(code, 'litellm' in sys.modules)"
+    )
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=180, check=False)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.split()[-2:] == ["0", "False"], done.stdout
+
+
 def test_the_docstring_example_runs_as_written(tmp_path: Path) -> None:
     doc = robocog.agent.__doc__ or ""
     block = re.search(r"::\n\n((?:    .*\n|\n)+)", doc)

@@ -251,3 +251,31 @@ def test_robocog_report_csv_upstream(tmp_path: Path) -> None:
         timeout=120,
     )
     assert bad.returncode == 2 and "invalid choice" in bad.stderr
+
+
+def test_report_warns_when_the_rows_of_a_file_disagree_on_their_provenance(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from robocog.agent.cli.main import main
+    from tests.unit.test_provenance import rows as provenanced
+
+    mixed = provenanced()
+    mixed[0] = mixed[0].model_copy(update={"version": "9.9.9"})
+    results = tmp_path / "mixed.jsonl"
+    results.write_text("".join(r.model_dump_json() + "\n" for r in mixed))
+    assert main(["report", str(results), "--out", str(tmp_path / "out")]) == 0
+    warned = capsys.readouterr().err.splitlines()
+    assert warned == [
+        f"robocog: warning: {results}: rows disagree on the robocog version: "
+        f"0.1.0 ({len(mixed) - 1} rows), 9.9.9 (1 rows)"
+    ]
+    text = (tmp_path / "out" / "report.md").read_text()
+    assert "## Provenance: the rows disagree" in text and "9.9.9 (1 rows)" in text
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert len(summary["provenance_disagreements"]) == 1
+
+    agreeing = tmp_path / "agreeing.jsonl"
+    agreeing.write_text("".join(r.model_dump_json() + "\n" for r in provenanced()))
+    assert main(["report", str(agreeing), "--out", str(tmp_path / "out2")]) == 0
+    assert capsys.readouterr().err == ""
+    assert "Provenance" not in (tmp_path / "out2" / "report.md").read_text()

@@ -46,7 +46,7 @@ def study(*models: ModelSpec, **overrides: object) -> EvalConfig:
 
 
 def test_jitter_is_seeded_bounded_and_independent_of_the_decisions() -> None:
-    from robocog.agent.policies.providers import turn_delay
+    from robocog.agent.policies.offline import turn_delay
 
     draws = [turn_delay(1.0, 0.2, seed=7, turn=t) for t in range(1, 50)]
     assert draws == [turn_delay(1.0, 0.2, seed=7, turn=t) for t in range(1, 50)]  # reproducible

@@ -109,8 +109,13 @@ def test_the_contract_publishes_the_rule_and_the_checker_sees_it_go() -> None:
     live = json.loads((CONTRACT_DIR / "default.json").read_text(encoding="utf-8"))
     assert "experimental.robocog/driver.issued" in live["capabilities"] and CONTRACT_VERSION == "3.0"
     without = live | {"capabilities": [c for c in live["capabilities"] if not c.startswith("experimental")]}
+    rule = "capability experimental.robocog/driver.issued"
     dropped = compare_contracts(live, without)
-    assert {c.kind for c in dropped if c.where == "capability experimental.robocog/driver.issued"} == {"breaking"}
+    assert {c.kind for c in dropped if c.where == rule} == {"breaking"}
+    # and against the 2.x files, which did not hold it, the rule arriving is the break 3.0 is numbered for
+    added = compare_contracts(without, live)
+    assert {c.kind for c in added if c.where == rule} == {"breaking"}
+    assert {c.kind for c in added if c.where == "capability experimental.robocog/driver"} == {"compatible"}
 
 
 async def test_the_second_client_drives_once_the_first_lets_go(tmp_path: Path) -> None:

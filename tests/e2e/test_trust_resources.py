@@ -5,19 +5,16 @@ namespace rule holds as the README says it once: robots share the server's names
 
 from __future__ import annotations
 
-import socket
+import os
 import subprocess
 import sys
-import time
-from collections.abc import AsyncIterator, Iterator
-from contextlib import asynccontextmanager, contextmanager
 from pathlib import Path
 from typing import Any
 
 import pytest
 from mcp import Client
 
-from tests.helpers import ROOT, free_port, server_command, server_env
+from tests.helpers import ROOT, call_ok, http_server, http_session, rss_mb, server_env
 
 pytestmark = pytest.mark.anyio
 
@@ -26,53 +23,9 @@ WARM_UP = 40
 OPEN = 8
 
 
-@contextmanager
-def fleet(tmp: Path, *args: str) -> Iterator[tuple[str, subprocess.Popen[bytes]]]:
-    port = free_port()
-    log = tmp / "server.log"
-    with log.open("wb") as out:
-        proc = subprocess.Popen(
-            [*server_command(), "--transport", "http", "--port", str(port), "--profile", "eval", *args],
-            stdout=out,
-            stderr=subprocess.STDOUT,
-            env=server_env(),
-        )
-        try:
-            deadline = time.monotonic() + 60
-            while True:
-                assert proc.poll() is None, log.read_text(errors="replace")
-                assert time.monotonic() < deadline, "the server did not listen"
-                with socket.socket() as s:
-                    if s.connect_ex(("127.0.0.1", port)) == 0:
-                        break
-                time.sleep(0.1)
-            yield f"http://127.0.0.1:{port}/mcp", proc
-        finally:
-            proc.terminate()
-            proc.wait(timeout=30)
-
-
-def rss_mb(pid: int) -> float:
-    return int(Path(f"/proc/{pid}/statm").read_text().split()[1]) * 4096 / 1e6
-
-
-@asynccontextmanager
-async def session(url: str) -> AsyncIterator[Client]:
-    from mcp.client.streamable_http import streamable_http_client
-
-    async with Client(streamable_http_client(url), mode="legacy") as client:
-        yield client
-
-
-async def call(client: Client, tool: str, **arguments: Any) -> dict[str, Any]:
-    result = await client.call_tool(tool, arguments)
-    assert not result.is_error, result.content
-    assert isinstance(result.structured_content, dict)
-    return result.structured_content
-
-
-def own_rss_mb() -> float:
-    return int(Path("/proc/self/statm").read_text().split()[1]) * 4096 / 1e6
+def fleet_args(tmp: Path) -> list[str]:
+    """A fleet of two robots, with the harness controls, its memory in `tmp`."""
+    return ["--profile", "eval", "--robots", "2", "--data-dir", str(tmp / "memory")]
 
 
 def test_200_namespaces_keep_a_fleets_memory_bounded(tmp_path: Path) -> None:
@@ -118,9 +71,9 @@ async def measure(tmp_path: Path) -> None:
                 tg.start_soon(units, robots[1], start + 1, stop)
 
         await both(0, WARM_UP)  # the embedding model, Chroma, the worker threads, the first closings
-        before = own_rss_mb()
+        before = rss_mb(os.getpid())
         await both(WARM_UP, NAMESPACES)
-        grown = own_rss_mb() - before
+        grown = rss_mb(os.getpid()) - before
         # unbounded, 160 namespaces cost about 2.7 MB each (~430 MB); bounded, a few closings' noise
         assert grown < 100, f"RSS grew {grown:.0f} MB over {NAMESPACES - WARM_UP} namespaces"
         assert fleet.memories.open_namespaces() <= OPEN + 2 and fleet.memories.recycled >= 20
@@ -135,15 +88,15 @@ async def measure(tmp_path: Path) -> None:
 
 
 async def test_robots_share_the_servers_namespace_unless_told_otherwise(tmp_path: Path) -> None:
-    with fleet(tmp_path, "--robots", "2", "--data-dir", str(tmp_path / "memory")) as (url, _):
-        async with session(url) as a, session(url) as b:
-            await call(a, "end_task", status="failure", description="grasp the TV", summary="too heavy")
-            found = await call(b, "search_memory", query="grasp the TV")
+    with http_server(tmp_path / "server.log", *fleet_args(tmp_path)) as url:
+        async with http_session(url) as a, http_session(url) as b:
+            await call_ok(a, "end_task", status="failure", description="grasp the TV", summary="too heavy")
+            found = await call_ok(b, "search_memory", query="grasp the TV")
             assert [r["summary"] for r in found["results"]] == ["too heavy"], "one namespace: shared"
-            await call(b, "reset_world", memory_namespace="b-own")
-            assert (await call(b, "search_memory", query="grasp the TV"))["results"] == []
-            assert (await call(b, "clear_memory"))["removed"] == 0, "b's clear_memory clears only b's namespace"
-            assert len((await call(a, "search_memory", query="grasp the TV"))["results"]) == 1
+            await call_ok(b, "reset_world", memory_namespace="b-own")
+            assert (await call_ok(b, "search_memory", query="grasp the TV"))["results"] == []
+            assert (await call_ok(b, "clear_memory"))["removed"] == 0, "b's clear_memory clears only b's namespace"
+            assert len((await call_ok(a, "search_memory", query="grasp the TV"))["results"]) == 1
 
 
 #: A client that takes a robot and then waits forever (until it is killed).
@@ -163,13 +116,11 @@ anyio.run(main)
 
 
 async def test_robots_of_clients_killed_mid_session_are_freed_promptly(tmp_path: Path) -> None:
-    import os
     import signal
-    import sys
 
     import anyio
 
-    with fleet(tmp_path, "--robots", "2", "--data-dir", str(tmp_path / "memory")) as (url, _):
+    with http_server(tmp_path / "server.log", *fleet_args(tmp_path)) as url:
         holders = [
             subprocess.Popen([sys.executable, "-c", HOLDER, url], stdout=subprocess.PIPE, env=server_env())
             for _ in range(2)
@@ -177,14 +128,14 @@ async def test_robots_of_clients_killed_mid_session_are_freed_promptly(tmp_path:
         try:
             for holder in holders:
                 assert holder.stdout is not None and holder.stdout.readline().strip() == b"holding"
-            async with session(url) as late:
+            async with http_session(url) as late:
                 refused = await late.call_tool("look_around", {})
                 assert refused.is_error and "all 2 robots" in str(refused.content)
             for holder in holders:
                 os.kill(holder.pid, signal.SIGKILL)
                 holder.wait()
             # both robots come back within seconds, not after --session-idle-s (600 s)
-            async with session(url) as a, session(url) as b:
+            async with http_session(url) as a, http_session(url) as b:
                 for client in (a, b):
                     with anyio.fail_after(60):
                         while (result := await client.call_tool("look_around", {})).is_error:
@@ -236,18 +187,18 @@ async def test_a_units_namespace_can_be_dropped_with_its_files_and_the_servers_c
         return {p.name for p in data.iterdir() if p.is_dir()}
 
     async with Client(server, mode="legacy") as client:
-        await call(client, "end_task", status="success", description="kept", summary="the server's own")
-        await call(client, "reset_world", memory_namespace="unit-7")
+        await call_ok(client, "end_task", status="success", description="kept", summary="the server's own")
+        await call_ok(client, "reset_world", memory_namespace="unit-7")
         for i in range(3):
-            await call(client, "end_task", status="success", description=f"unit task {i}", summary="s")
-        await call(client, "search_memory", query="unit task")
+            await call_ok(client, "end_task", status="success", description=f"unit task {i}", summary="s")
+        await call_ok(client, "search_memory", query="unit task")
         before = index_dirs()
-        dropped = await call(client, "clear_memory", drop=True)
+        dropped = await call_ok(client, "clear_memory", drop=True)
         assert dropped["removed"] == 3 and dropped["freed_bytes"] > 0
         assert len(index_dirs()) < len(before), "the namespace's files are gone"
-        found = await call(client, "search_memory", query="kept")
+        found = await call_ok(client, "search_memory", query="kept")
         assert [r["summary"] for r in found["results"]] == ["the server's own"], "back in the server's namespace"
         refused = await client.call_tool("clear_memory", {"drop": True})
         assert refused.is_error and "is the server's own memory namespace" in str(refused.content)
-        await call(client, "reset_world", memory_namespace="unit-7")
-        assert (await call(client, "search_memory", query="unit task"))["results"] == [], "made anew, empty"
+        await call_ok(client, "reset_world", memory_namespace="unit-7")
+        assert (await call_ok(client, "search_memory", query="unit task"))["results"] == [], "made anew, empty"

@@ -5,41 +5,18 @@ place. (The latency of `move_to` with 0 and 300 readers is a figure: tests/bench
 
 from __future__ import annotations
 
-import re
-import tempfile
-from collections.abc import AsyncIterator
-from contextlib import AsyncExitStack, asynccontextmanager
+from contextlib import AsyncExitStack
 from pathlib import Path
-from typing import TextIO, cast
 
 import anyio
 import httpx
 import pytest
-from mcp import Client
-from mcp.client.stdio import StdioServerParameters, stdio_client
 
 from robocog.server.viewer import MAX_READERS
-from tests.helpers import server_command
+from tests.helpers import live_server
 
 pytestmark = pytest.mark.anyio
 READERS = 300
-
-
-@asynccontextmanager
-async def viewed_server(data_dir: Path) -> AsyncIterator[tuple[Client, str]]:
-    """`robocog-server --view 0` over stdio, and its viewer's address."""
-    command, *rest = server_command()
-    args = [*rest, "--view", "0", "--data-dir", str(data_dir)]
-    with tempfile.NamedTemporaryFile("w+", suffix=".log") as log:
-        params = StdioServerParameters(command=command, args=args, env={"ANONYMIZED_TELEMETRY": "False"})
-        async with Client(stdio_client(params, errlog=cast(TextIO, log))) as client:
-            url = None
-            with anyio.fail_after(60):
-                while url is None:
-                    found = re.search(r"live viewer at (http://127\.0\.0\.1:\d+/)", Path(log.name).read_text())
-                    url = found.group(1) if found else None
-                    await anyio.sleep(0.05)
-            yield client, url
 
 
 async def first_result_event(response: httpx.Response) -> bytes:
@@ -54,7 +31,7 @@ async def first_result_event(response: httpx.Response) -> bytes:
 
 
 async def test_readers_past_the_cap_get_503_and_the_admitted_all_see_the_move(tmp_path: Path) -> None:
-    async with viewed_server(tmp_path / "memory") as (client, url):
+    async with live_server(tmp_path / "memory") as (client, url):
         limits = httpx.Limits(max_connections=None, max_keepalive_connections=0)
         async with httpx.AsyncClient(base_url=url, timeout=60, limits=limits) as http, AsyncExitStack() as streams:
             with anyio.fail_after(60):

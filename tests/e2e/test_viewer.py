@@ -14,8 +14,8 @@ from pathlib import Path
 
 import pytest
 
-from tests.browser import browser_page, chromium, live_server, screenshot_path, serving
-from tests.helpers import DATA
+from tests.browser import browser_page, chromium, screenshot_path, serving
+from tests.helpers import DATA, live_server
 
 # --- the live viewer in a browser ------------------------------------------------------------------
 
@@ -23,7 +23,7 @@ from tests.helpers import DATA
 @pytest.mark.anyio
 async def test_live_viewer_follows_a_client_over_stdio(tmp_path: Path) -> None:
     chromium()  # skips, saying how to install it, where there is no browser
-    async with live_server(tmp_path / "memory") as (client, url), browser_page() as page:
+    async with live_server(tmp_path / "memory", "--profile", "eval") as (client, url), browser_page() as page:
         await page.goto(url)
         await page.wait_for_function("document.body.dataset.ready === 'true'", timeout=60_000)
         assert await page.title() == "robocog · live"

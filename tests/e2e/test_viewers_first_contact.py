@@ -16,8 +16,8 @@ from pathlib import Path
 
 import pytest
 
-from tests.browser import browser_page, live_server, screenshot_path, serving
-from tests.helpers import DATA
+from tests.browser import browser_page, screenshot_path, serving
+from tests.helpers import DATA, live_server
 
 pytestmark = pytest.mark.anyio
 
@@ -157,7 +157,7 @@ async def test_live_viewer_counts_the_agents_calls_labels_locations_and_shows_th
     import numpy as np
     from PIL import Image
 
-    async with live_server(tmp_path / "memory") as (client, url), browser_page() as page:
+    async with live_server(tmp_path / "memory", "--profile", "eval") as (client, url), browser_page() as page:
         await page.goto(url)
         await page.wait_for_function("document.body.dataset.ready === 'true'", timeout=90_000)
         await client.call_tool("begin_task", {"task_id": "T1"})
@@ -179,3 +179,10 @@ async def test_live_viewer_counts_the_agents_calls_labels_locations_and_shows_th
         await client.call_tool("move_to", {"location": "Front Door"})
         await page.wait_for_function("document.getElementById('map').dataset.location === 'Front Door'")
         await page.screenshot(path=shot("live-at-the-front-door"))
+        robot = json.loads(await page.get_attribute("#map", "data-robot") or "{}")
+        labels = json.loads(await page.get_attribute("#map", "data-labels") or "[]")
+        assert {box["name"] for box in labels} >= {"Front Door", "Kitchen Shelf", "Living Room TV"}
+        for box in labels:  # no name starts inside the circle the robot turns in
+            nearest_x = min(max(robot["x"], box["x0"]), box["x1"])
+            nearest_y = min(max(robot["y"], box["y0"]), box["y1"])
+            assert (nearest_x - robot["x"]) ** 2 + (nearest_y - robot["y"]) ** 2 > robot["r"] ** 2, box

@@ -95,12 +95,12 @@ async def test_the_papers_protocol_offers_its_eight_tools_and_ours_open_and_clos
 async def test_a_client_offers_open_and_close_only_in_a_world_with_furniture_that_opens(
     robot: Client, tmp_path: Path
 ) -> None:
-    from robocog.agent.client.loop import _world_has_furniture
+    from robocog.agent.client.loop import world_has_furniture
 
-    assert await _world_has_furniture(robot, (await robot.list_tools()).tools)
+    assert await world_has_furniture(robot, (await robot.list_tools()).tools)
     household = build_server(SessionConfig(data_dir=tmp_path / "household"), profile="eval")
     async with Client(household, raise_exceptions=True) as paper_world:
-        assert not await _world_has_furniture(paper_world, (await paper_world.list_tools()).tools)
+        assert not await world_has_furniture(paper_world, (await paper_world.list_tools()).tools)
 
 
 @pytest.mark.filterwarnings("ignore::mcp.shared.exceptions.MCPDeprecationWarning")  # a 2025-11-25 client's subscribe

@@ -1,5 +1,5 @@
 """The shape of the code: the import contracts hold (import-linter, as `make lint` runs it), no module
-reaches into another's private names, no source file grows past 400 lines, and reading results
+reaches into another's private names, no source or test file grows past 400 lines, and reading results
 (`robocog report`, `robocog view`, `robocog --help`) starts without the MCP SDK, LiteLLM or PyBullet."""
 
 from __future__ import annotations
@@ -16,7 +16,9 @@ from tests.helpers import ROOT
 
 #: The source folders (the published packages), as the repository lays them out.
 SOURCES = ("agent", "server", "shared", "integrations/inspect")
-#: No source file is longer than this.
+#: The tests (every tier, their support code, the benches).
+TESTS = "tests"
+#: No source or test file is longer than this.
 MAX_LINES = 400
 #: Where import-linter finds `robocog` as a plain package tree (`make lint` lays it out).
 TYPE_TREE = ROOT / "build" / "typecheck"
@@ -67,11 +69,10 @@ def test_no_module_imports_a_private_name_of_another() -> None:
     assert offenders == []
 
 
-def test_no_source_file_is_longer_than_400_lines() -> None:
+def test_no_source_or_test_file_is_longer_than_400_lines() -> None:
+    files = [*source_files(), *sorted((ROOT / TESTS).rglob("*.py"))]
     long = {
-        str(p.relative_to(ROOT)): n
-        for p in source_files()
-        if (n := len(p.read_text(encoding="utf-8").splitlines())) > MAX_LINES
+        str(p.relative_to(ROOT)): n for p in files if (n := len(p.read_text(encoding="utf-8").splitlines())) > MAX_LINES
     }
     assert long == {}
 
@@ -82,7 +83,8 @@ def test_reading_results_imports_neither_mcp_nor_litellm_nor_pybullet() -> None:
         "import robocog.agent.cli.main as cli\n"
         "cli.build_parser()\n"
         "import robocog.agent.cli.report, robocog.agent.analysis.report, robocog.agent.analysis.results_file\n"
-        "import robocog.agent.view.serve\n"
+        "import robocog.agent.view.serve, robocog.agent.view.bundle, robocog.agent.view.leaderboard_page\n"
+        "import robocog.agent.cli.leaderboard, robocog.agent.cli.submit, robocog.agent.analysis.submission\n"
         "heavy = ('mcp', 'litellm', 'pybullet', 'chromadb')\n"
         "print(sorted({m.split('.')[0] for m in sys.modules if m.split('.')[0] in heavy}))\n"
     )

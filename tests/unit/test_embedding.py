@@ -43,6 +43,7 @@ def test_empty_list_gives_empty_array() -> None:
 
 def test_sha256_mismatch_raises(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(embedding, "MODEL_SHA256", "0" * 64)
+    monkeypatch.setattr(embedding, "_cache", embedding.OrderedDict())  # a text seen before needs no model
     with pytest.raises(RuntimeError, match=r"expected sha256 0{64}"):
         embed(["open the fridge"])
 
@@ -64,3 +65,22 @@ def test_chroma_embedding_function_round_trips_config() -> None:
 def test_chroma_embedding_function_rejects_other_model_config() -> None:
     with pytest.raises(ValueError, match="embedded with"):
         MiniLMEmbeddingFunction.build_from_config({"model_id": "some-other-model"})
+
+
+def test_a_text_embedded_again_comes_from_the_cache_which_stays_bounded(monkeypatch: pytest.MonkeyPatch) -> None:
+    runs: list[list[str]] = []
+    real = embedding._embed_batch
+
+    def counted(session: Any, tokenizer: Any, names: Any, texts: list[str]) -> Any:
+        runs.append(texts)
+        return real(session, tokenizer, names, texts)
+
+    monkeypatch.setattr(embedding, "_embed_batch", counted)
+    monkeypatch.setattr(embedding, "_cache", embedding.OrderedDict())
+    first = embed(["Put away all the items into the shelf.", "a new text"])
+    again = embed(["a third text", "Put away all the items into the shelf."])
+    assert runs == [["a new text", "Put away all the items into the shelf."], ["a third text"]]
+    np.testing.assert_array_equal(again[1], first[0])
+    monkeypatch.setattr(embedding, "CACHE_SIZE", 2)
+    embed(["one", "two", "three"])
+    assert list(embedding._cache) == ["two", "three"]

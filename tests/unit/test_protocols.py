@@ -1,6 +1,6 @@
 """The two evaluation protocols, seen from the model's side of a real provider route.
 
-The planner answers over loopback HTTP (tests/fake_llm.py), so every request the harness sent is
+The planner answers over loopback HTTP (tests/fake_llm/), so every request the harness sent is
 recorded: the conversation shape, the task messages, the system prompt, what search_memory and the
 scratchpad returned. Each protocol runs a whole study (T1 then T2, four memory iterations).
 """

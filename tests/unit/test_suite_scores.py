@@ -1,4 +1,4 @@
-"""Scores per family (agent/suite_scores.py) against hand values, and the report's per-family table,
+"""Scores per family (agent/analysis/scores.py) against hand values, and the report's per-family table,
 CSV and capability profile from synthetic rows."""
 
 from __future__ import annotations

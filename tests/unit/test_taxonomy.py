@@ -1,4 +1,4 @@
-"""The error taxonomy (agent/taxonomy.py) on hand-built traces: one test per category, with the
+"""The error taxonomy (agent/analysis/taxonomy.py) on hand-built traces: one test per category, with the
 results the server really gives (the error codes and messages of server/tools)."""
 
 from __future__ import annotations
@@ -56,7 +56,7 @@ LOOK = {
 
 
 class Script:
-    """A trace built call by call, as agent/loop.py writes one."""
+    """A trace built call by call, as agent/client/loop.py writes one."""
 
     def __init__(self) -> None:
         self.events: list[TraceEvent] = [RunStarted(t=0, task="t", model="m", server="s", tools=TOOLS)]

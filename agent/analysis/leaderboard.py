@@ -1,0 +1,276 @@
+"""The leaderboard: studies side by side, one entry per model and protocol.
+
+Each entry pools its model's rows (under one protocol) from every study given, and scores them with
+the per-family code (`robocog.agent.analysis.scores.family_row`, every attempt counted, errored ones
+as failures): success with its Wilson 95% interval, the false-success rate with its interval, pass^k
+with its bootstrap interval, success per family and per capability tag (rows that carry
+`capabilities`; robocog-v1's rows carry none, so no capability column appears), tokens and cost per
+attempt where known (rows whose cost is unknown are left out of the cost's mean; none known: n/a).
+
+An entry is *verified* when every row of it ran on the prompts, tools and task files robocog ships
+and every trace is present (`robocog.agent.analysis.provenance.verify`); rows written before
+provenance existed are never verified, but they are scored like any other.
+
+A study is a results file (JSONL, its traces beside it) or a submission (`robocog submit prepare`),
+read by `load_study`; `board` builds the entries, `board_json` and `board_markdown` write them, and
+`draw_success_cost` plots success against cost per attempt.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import defaultdict
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from robocog.agent.analysis.markdown_table import cell, md_table, pct
+from robocog.agent.analysis.provenance import Verification, disagreements, trace_on_disk, verify
+from robocog.agent.analysis.scores import FamilyRow, family_of, family_row
+from robocog.shared import __version__
+from robocog.shared.evaluation import AttemptRow
+
+FIGURE = "success_cost.png"
+
+
+@dataclass(frozen=True)
+class Study:
+    """A study's rows and, for each, whether its trace is present."""
+
+    name: str
+    rows: tuple[AttemptRow, ...]
+    traced: tuple[bool, ...]
+
+
+def results_study(path: Path) -> Study:
+    """A results file written by `robocog eval`, its traces looked for beside it."""
+    from robocog.agent.analysis.results_file import load_rows
+
+    rows = load_rows(path)
+    if not rows:
+        raise ValueError(f"{path}: the results file holds no attempts")
+    present = trace_on_disk(path.resolve().parent)
+    return Study(path.name, tuple(rows), tuple(present(r) for r in rows))
+
+
+def load_study(path: Path) -> Study:
+    """A results file (`.jsonl`) or a submission (`.json`, validated first)."""
+    if path.suffix == ".json":
+        from robocog.agent.analysis.submission import read_submission
+
+        return read_submission(path).study(path.name)
+    return results_study(path)
+
+
+@dataclass(frozen=True)
+class Entry:
+    """One model under one protocol, its rows pooled over the studies."""
+
+    model: str
+    protocol: str
+    studies: tuple[str, ...]
+    model_ids: tuple[str, ...]
+    overall: FamilyRow
+    families: dict[str, FamilyRow]
+    capabilities: dict[str, FamilyRow]
+    tokens_per_attempt: float | None
+    cost_per_attempt: float | None
+    cost_known: int
+    verification: Verification
+
+    @property
+    def name(self) -> str:
+        return f"{self.model} ({self.protocol})"
+
+
+@dataclass(frozen=True)
+class Board:
+    studies: tuple[Study, ...]
+    entries: tuple[Entry, ...]
+    families: tuple[str, ...]
+    capabilities: tuple[str, ...]
+    ks: tuple[int, ...]
+    warnings: tuple[str, ...] = field(default=())
+
+
+def _mean(values: list[float]) -> float | None:
+    return sum(values) / len(values) if values else None
+
+
+def entry(model: str, protocol: str, pairs: list[tuple[str, AttemptRow, bool]]) -> Entry:
+    """The entry of `model` under `protocol` from its (study, row, trace present) triples."""
+    rows = [r for _, r, _ in pairs]
+    traced = {id(r): t for _, r, t in pairs}
+    by_family: dict[str, list[AttemptRow]] = defaultdict(list)
+    by_capability: dict[str, list[AttemptRow]] = defaultdict(list)
+    for r in rows:
+        by_family[family_of(r)].append(r)
+        for tag in r.capabilities:
+            by_capability[tag].append(r)
+    costs = [r.cost for r in rows if r.cost is not None]
+    return Entry(
+        model=model,
+        protocol=protocol,
+        studies=tuple(dict.fromkeys(s for s, _, _ in pairs)),
+        model_ids=tuple(dict.fromkeys(r.model_id for r in rows if r.model_id)),
+        overall=family_row(model, "all", rows),
+        families={f: family_row(model, f, group) for f, group in by_family.items()},
+        capabilities={c: family_row(model, c, group) for c, group in sorted(by_capability.items())},
+        tokens_per_attempt=_mean([float(r.tokens_in + r.tokens_out) for r in rows]),
+        cost_per_attempt=_mean(costs),
+        cost_known=len(costs),
+        verification=verify(rows, lambda r: traced[id(r)]),
+    )
+
+
+def _attempt_key(r: AttemptRow) -> tuple[object, ...]:
+    return (r.study, r.model, r.protocol, r.seed, r.trial, r.memory_iteration, r.task)
+
+
+def board(studies: Sequence[Study]) -> Board:
+    """The leaderboard of `studies`: entries by success (highest first), then by name. A ValueError
+    when two studies hold the same attempts (a study given twice, as results and as a submission)."""
+    seen: dict[tuple[object, ...], str] = {}
+    for s in studies:
+        for key in dict.fromkeys(_attempt_key(r) for r in s.rows):
+            if key in seen:
+                raise ValueError(f"{seen[key]} and {s.name} hold the same attempts (study {key[0]!r}): give each once")
+            seen[key] = s.name
+    grouped: dict[tuple[str, str], list[tuple[str, AttemptRow, bool]]] = defaultdict(list)
+    warnings = []
+    for s in studies:
+        for r, t in zip(s.rows, s.traced, strict=True):
+            grouped[(r.model, r.protocol)].append((s.name, r, t))
+        warnings += [f"{s.name}: {line}" for line in disagreements(s.rows)]
+    entries = sorted(
+        (entry(m, p, pairs) for (m, p), pairs in grouped.items()), key=lambda e: (-e.overall.success, e.name)
+    )
+    families = tuple(dict.fromkeys(f for e in entries for f in e.families))
+    capabilities = tuple(sorted({c for e in entries for c in e.capabilities}))
+    ks = tuple(sorted({k for e in entries for k in e.overall.pass_k}))
+    return Board(tuple(studies), tuple(entries), families, capabilities, ks, tuple(warnings))
+
+
+def _interval(ci: tuple[float, float] | None) -> list[float] | None:
+    return None if ci is None or any(math.isnan(v) for v in ci) else [round(v, 4) for v in ci]
+
+
+def _score(row: FamilyRow) -> dict[str, Any]:
+    return {"success": round(row.success, 4), "ci": _interval(row.success_ci), "attempts": row.attempts}
+
+
+def entry_json(e: Entry) -> dict[str, Any]:
+    o = e.overall
+    return {
+        "model": e.model,
+        "protocol": e.protocol,
+        "model_ids": list(e.model_ids),
+        "studies": list(e.studies),
+        "verified": e.verification.verified,
+        "problems": list(e.verification.problems),
+        "attempts": o.attempts,
+        "errored": o.errored,
+        "success": round(o.success, 4),
+        "success_ci": _interval(o.success_ci),
+        "false_success_rate": None if o.false_success_rate is None else round(o.false_success_rate, 4),
+        "false_success_ci": _interval(o.false_success_ci),
+        "pass_k": {str(k): v for k, v in o.pass_k.items()},
+        "pass_k_ci": {str(k): _interval(v) for k, v in o.pass_k_ci.items()},
+        "families": {f: _score(s) for f, s in e.families.items()},
+        "capabilities": {c: _score(s) for c, s in e.capabilities.items()},
+        "tokens_per_attempt": None if e.tokens_per_attempt is None else round(e.tokens_per_attempt, 1),
+        "cost_per_attempt": e.cost_per_attempt,
+        "cost_known": e.cost_known,
+    }
+
+
+def board_json(b: Board) -> dict[str, Any]:
+    """The leaderboard as JSON (what the page shows, and leaderboard.json)."""
+    return {
+        "robocog_version": __version__,
+        "studies": [{"name": s.name, "attempts": len(s.rows)} for s in b.studies],
+        "families": list(b.families),
+        "capabilities": list(b.capabilities),
+        "ks": list(b.ks),
+        "warnings": list(b.warnings),
+        "entries": [entry_json(e) for e in b.entries],
+    }
+
+
+def _with_ci(value: float | None, ci: tuple[float, float] | None) -> str:
+    if value is None or math.isnan(value):
+        return "n/a"
+    bounds = _interval(ci)
+    return pct(value) if bounds is None else f"{pct(value)} [{pct(bounds[0])}, {pct(bounds[1])}]"
+
+
+def board_markdown(b: Board) -> str:
+    """The leaderboard as a markdown table (leaderboard.md)."""
+    header = ["#", "model", "protocol", "verified", "attempts", "success [95% CI]", "false success"]
+    header += [f"pass^{k}" for k in b.ks] + list(b.families) + [f"cap. {c}" for c in b.capabilities]
+    header += ["tokens / attempt", "cost / attempt"]
+    lines = []
+    for i, e in enumerate(b.entries, 1):
+        o = e.overall
+        line = [str(i), cell(e.model), e.protocol, "yes" if e.verification.verified else "no", str(o.attempts)]
+        line += [_with_ci(o.success, o.success_ci), _with_ci(o.false_success_rate, o.false_success_ci)]
+        line += [_with_ci(o.pass_k.get(k), o.pass_k_ci.get(k)) for k in b.ks]
+        line += [pct(e.families[f].success) if f in e.families else "–" for f in b.families]
+        line += [pct(e.capabilities[c].success) if c in e.capabilities else "–" for c in b.capabilities]
+        line += ["n/a" if e.tokens_per_attempt is None else f"{e.tokens_per_attempt:.0f}"]
+        line += ["n/a" if e.cost_per_attempt is None else f"${e.cost_per_attempt:.4f}"]
+        lines.append(line)
+    parts = ["# robocog leaderboard", "", f"Studies: {', '.join(s.name for s in b.studies)}.", ""]
+    parts += [md_table(header, lines), ""]
+    unverified = [e for e in b.entries if not e.verification.verified]
+    if unverified:
+        parts += ["Not verified:", ""]
+        parts += [f"- {cell(e.name)}: {'; '.join(e.verification.problems)}" for e in unverified]
+        parts += [""]
+    if b.warnings:
+        parts += ["Provenance disagreements within a study:", ""] + [f"- {w}" for w in b.warnings] + [""]
+    parts += [f"![success against cost per attempt]({FIGURE})", ""]
+    return "\n".join(parts)
+
+
+def draw_success_cost(b: Board, out: Path) -> str:
+    """Success (with its 95% interval) against cost per attempt, one point per entry; entries whose
+    cost is unknown sit on a strip at the left, marked "cost unknown". Returns the file name."""
+    from robocog.agent.analysis.figure_layout import TAB10, new_figure
+
+    fig = new_figure(7.2, 4.6)
+    ax = fig.add_subplot(1, 1, 1)
+    known = [e.cost_per_attempt for e in b.entries if e.cost_per_attempt is not None]
+    top = max(known, default=0.0) or 1.0
+    unknown_x = -0.08 * top
+    placed: list[tuple[float, float]] = []  # labels already written: a close one moves its neighbour down
+    for i, e in enumerate(b.entries):
+        o = e.overall
+        x = unknown_x if e.cost_per_attempt is None else e.cost_per_attempt
+        near = sum(abs(px - x) < 0.02 * top and abs(py - o.success) < 0.05 for px, py in placed)
+        placed.append((x, o.success))
+        low, high = o.success_ci
+        ax.errorbar(
+            [x],
+            [o.success],
+            yerr=[[max(0.0, o.success - low)], [max(0.0, high - o.success)]],
+            fmt="o" if e.verification.verified else "s",
+            color=TAB10[i % len(TAB10)],
+            capsize=3,
+            markersize=7,
+            mfc="white" if not e.verification.verified else None,
+        )
+        ax.annotate(e.name, (x, o.success), textcoords="offset points", xytext=(6, 4 - 9 * near), fontsize=7)
+    if len(known) < len(b.entries):
+        ax.axvline(unknown_x / 2, color="grey", linewidth=0.6, linestyle=":")
+        ax.text(unknown_x, -0.04, "cost\nunknown", fontsize=7, ha="center", va="top", color="grey")
+    ax.set_xlim(unknown_x * 1.8, top * 1.35)
+    ax.set_ylim(-0.12, 1.05)
+    ax.set_xlabel("cost per attempt (USD, mean over the attempts whose cost is known)")
+    ax.set_ylabel("success (95% Wilson interval)")
+    ax.grid(alpha=0.3)
+    ax.set_title("Success against cost per attempt (filled circle: verified; open square: not)", fontsize=9)
+    path = out / FIGURE
+    fig.savefig(path)
+    return path.name

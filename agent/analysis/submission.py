@@ -1,0 +1,191 @@
+"""A submission: a study packed into one JSON file for a leaderboard elsewhere (`robocog submit`).
+
+`prepare` writes what a leaderboard needs: every row (with its provenance), the sha256 of each row's
+trace file (None where it was missing), a digest of the rows, the suite and split the rows cover (or
+the tasks of a study of the paper's tasks), the models with their protocol, model string and
+sampling parameters, the trials per instance, and a summary per model (success, pass^k, cost).
+`validate` checks that file: its format, that the rows and trace digests read and the rows' digest
+matches them (a file edited after `prepare` does not), that every model covers every instance of
+the split (for the paper's tasks, the first task: a later one runs only after it succeeded), and
+that every instance has the declared number of trials per model and memory iteration. Whether the
+rows ran on what robocog ships is not a validity question: it is the leaderboard's *verified* mark,
+which `validate` reports too.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import re
+from collections import defaultdict
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from pydantic import ValidationError
+
+from robocog.agent.analysis.leaderboard import Study, board, entry_json
+from robocog.agent.analysis.provenance import trace_on_disk
+from robocog.shared import __version__
+from robocog.shared.evaluation import AttemptRow
+from robocog.shared.provenance import sha256_of
+
+FORMAT = "robocog-submission/1"
+_DIGEST = re.compile(r"^[0-9a-f]{64}$")
+
+
+def _suite_and_split(rows: Sequence[AttemptRow]) -> tuple[str | None, str | None]:
+    """The suite the rows' instances are of, and the one split that holds them all."""
+    from robocog.shared.suite import DEFAULT_SUITE, SUITES_DIR, load_split
+
+    instances = {r.instance for r in rows if r.instance}
+    if not instances:
+        return None, None
+    named = {r.provenance.suite for r in rows if r.provenance and r.provenance.suite}
+    suite = next(iter(named)) if len(named) == 1 else DEFAULT_SUITE
+    for path in sorted((SUITES_DIR / suite).glob("*.jsonl")):
+        if instances <= {i.id for i in load_split(suite, path.stem)}:
+            return suite, path.stem
+    raise ValueError(f"the rows' instances are not all of one split of the suite {suite}")
+
+
+def _file_sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _groups(rows: Sequence[AttemptRow], tasks: Sequence[str]) -> dict[tuple[str, str, int], int]:
+    """Attempts per (model, instance or counted task, memory iteration)."""
+    counts: dict[tuple[str, str, int], int] = defaultdict(int)
+    for r in rows:
+        if r.instance or r.task in tasks:
+            counts[(r.model, r.instance or r.task, r.memory_iteration)] += 1
+    return counts
+
+
+def prepare(results: Path) -> dict[str, Any]:
+    """The submission of the study in `results` (its traces looked for beside it)."""
+    from robocog.agent.analysis.results_file import load_rows
+
+    rows = load_rows(results)
+    if not rows:
+        raise ValueError(f"{results}: the results file holds no attempts")
+    base = results.resolve().parent
+    present = trace_on_disk(base)
+    traces = [_file_sha256(base / str(r.trace)) if present(r) else None for r in rows]
+    suite, split = _suite_and_split(rows)
+    tasks = [] if suite else list(dict.fromkeys(r.task for r in rows))
+    counted = _groups(rows, tasks[:1])
+    models: dict[str, dict[str, Any]] = {}
+    for r in rows:
+        models.setdefault(
+            r.model,
+            {
+                "model": r.model,
+                "protocol": r.protocol,
+                "model_id": r.model_id,
+                "params": r.provenance.params if r.provenance else None,
+            },
+        )
+    dumped = [r.model_dump(mode="json") for r in rows]
+    study = Study(results.name, tuple(rows), tuple(t is not None for t in traces))
+    return {
+        "format": FORMAT,
+        "robocog_version": __version__,
+        "study": rows[0].study or results.stem,
+        "suite": suite,
+        "split": split,
+        "tasks": tasks,
+        "models": list(models.values()),
+        "trials_per_instance": max(counted.values(), default=0),
+        "summary": [entry_json(e) for e in board([study]).entries],
+        "rows_sha256": sha256_of(dumped),
+        "traces": traces,
+        "rows": dumped,
+    }
+
+
+@dataclass(frozen=True)
+class Submission:
+    """A submission that validated."""
+
+    data: dict[str, Any]
+    rows: tuple[AttemptRow, ...]
+
+    def study(self, name: str) -> Study:
+        return Study(name, self.rows, tuple(t is not None for t in self.data["traces"]))
+
+
+def _coverage(data: dict[str, Any], rows: Sequence[AttemptRow]) -> list[str]:
+    from robocog.shared.suite import load_split
+
+    problems = []
+    models = sorted({r.model for r in rows})
+    if data.get("suite"):
+        try:
+            wanted = [i.id for i in load_split(str(data["suite"]), str(data["split"]))]
+        except (OSError, ValueError) as exc:
+            return [f"suite {data['suite']} / split {data['split']}: {exc}"]
+        where = f"{data['suite']}/{data['split']}"
+    else:
+        wanted = list(data.get("tasks") or [])[:1]
+        where = "the study's first task"
+    for m in models:
+        have = {r.instance or r.task for r in rows if r.model == m}
+        missing = [w for w in wanted if w not in have]
+        if missing:
+            shown = ", ".join(missing[:3]) + (", …" if len(missing) > 3 else "")
+            problems.append(
+                f"{m} covers {len(wanted) - len(missing)} of the {len(wanted)} of {where} ({shown} missing)"
+            )
+    trials = data.get("trials_per_instance")
+    tasks = [] if data.get("suite") else wanted
+    for (m, what, iteration), n in sorted(_groups(rows, tasks).items()):
+        if n != trials:
+            problems.append(f"{m} has {n} trials of {what} at memory iteration {iteration}, not {trials}")
+            break
+    return problems
+
+
+def validate(data: Any) -> tuple[list[str], tuple[AttemptRow, ...]]:
+    """The problems of a submission (none: valid) and its rows (when they read)."""
+    if not isinstance(data, dict):
+        return ["a submission is a JSON object"], ()
+    if data.get("format") != FORMAT:
+        return [f"format {data.get('format')!r} is not {FORMAT!r}"], ()
+    missing = [k for k in ("rows", "traces", "rows_sha256", "models", "trials_per_instance") if k not in data]
+    if missing:
+        return [f"missing {', '.join(missing)}"], ()
+    raw, traces = data["rows"], data["traces"]
+    if not isinstance(raw, list) or not raw:
+        return ["it holds no rows"], ()
+    rows = []
+    for number, item in enumerate(raw, 1):
+        try:
+            rows.append(AttemptRow.model_validate(item))
+        except ValidationError as exc:
+            return [f"row {number} is not a result row ({exc.error_count()} errors)"], ()
+    if sha256_of(raw) != data["rows_sha256"]:
+        return ["rows_sha256 does not match the rows (edited after robocog submit prepare?)"], tuple(rows)
+    if not isinstance(traces, list) or len(traces) != len(rows):
+        return [f"traces must list one digest (or null) per row: {len(rows)} rows"], tuple(rows)
+    bad = [i for i, t in enumerate(traces, 1) if t is not None and not (isinstance(t, str) and _DIGEST.match(t))]
+    if bad:
+        return [f"the trace digest of row {bad[0]} is not a sha256"], tuple(rows)
+    declared = {m.get("model") for m in data["models"] if isinstance(m, dict)}
+    found = {r.model for r in rows}
+    if declared != found:
+        return [f"models lists {sorted(map(str, declared))} but the rows are of {sorted(found)}"], tuple(rows)
+    return _coverage(data, rows), tuple(rows)
+
+
+def read_submission(path: Path) -> Submission:
+    """A submission file that validates; a ValueError says its first problem."""
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{path}: not JSON ({exc.msg}, line {exc.lineno})") from exc
+    problems, rows = validate(data)
+    if problems:
+        raise ValueError(f"{path}: not a valid submission: {problems[0]}")
+    return Submission(data, rows)

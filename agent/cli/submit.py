@@ -1,0 +1,74 @@
+"""`robocog submit prepare RESULTS --out submission.json` and `robocog submit validate FILE`: a study
+packed for a leaderboard elsewhere, and checked (`robocog.agent.analysis.submission`). Reads results
+and submissions only: it imports neither the MCP SDK nor LiteLLM."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+
+def add_parser(sub: Any) -> argparse.ArgumentParser:
+    sm: argparse.ArgumentParser = sub.add_parser(
+        "submit", help="pack a study into a submission for a leaderboard, or validate one"
+    )
+    actions = sm.add_subparsers(dest="action", required=True)
+    prep = actions.add_parser("prepare", help="write a submission from a results file")
+    prep.add_argument("results", type=Path, help="results file written by robocog eval (its traces beside it)")
+    prep.add_argument("--out", type=Path, required=True, help="the submission file to write, e.g. submission.json")
+    val = actions.add_parser("validate", help="check a submission: its digests, its coverage, its trials")
+    val.add_argument("submission", type=Path, help="a file written by robocog submit prepare")
+    return sm
+
+
+def _fail(path: Path, exc: BaseException) -> int:
+    problem = " ".join(str(exc).split())
+    print(f"robocog: {problem if problem.startswith(str(path)) else f'{path}: {problem}'}", file=sys.stderr)
+    return 2
+
+
+def main(args: argparse.Namespace) -> int:
+    """Run `robocog submit prepare|validate`; returns the exit code."""
+    from pydantic import ValidationError
+
+    from robocog.agent.analysis.submission import prepare, validate
+
+    if args.action == "prepare":
+        try:
+            data = prepare(args.results)
+        except (OSError, ValueError, ValidationError) as exc:
+            return _fail(args.results, exc)
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+        args.out.write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
+        problems, _ = validate(data)
+        print(f"submission: {args.out} ({len(data['rows'])} rows, {len(data['models'])} models)")
+        for line in problems:
+            print(f"robocog: warning: {args.out}: {line}", file=sys.stderr)
+        return 0
+    return validate_command(args.submission)
+
+
+def validate_command(path: Path) -> int:
+    """`robocog submit validate FILE`: exit 0 and a verdict when valid, 2 and the problems when not."""
+    from robocog.agent.analysis.provenance import verify
+    from robocog.agent.analysis.submission import validate
+
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        return _fail(path, exc if isinstance(exc, OSError) else ValueError(f"not JSON: {exc}"))
+    problems, rows = validate(data)
+    if problems:
+        print(f"robocog: {path}: not a valid submission: {problems[0]}", file=sys.stderr)
+        for line in problems[1:]:
+            print(f"robocog: {path}: also: {line}", file=sys.stderr)
+        return 2
+    traced = dict(zip(map(id, rows), (t is not None for t in data["traces"]), strict=True))
+    verification = verify(rows, lambda r: traced[id(r)])
+    covers = f"{data['suite']}/{data['split']}" if data.get("suite") else ", ".join(data.get("tasks") or [])
+    mark = "verified" if verification.verified else "not verified: " + "; ".join(verification.problems)
+    print(f"{path}: valid ({len(rows)} rows, {data['trials_per_instance']} trials per instance, {covers}); {mark}")
+    return 0

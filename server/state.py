@@ -1,0 +1,93 @@
+"""What a running server holds (`AppState`: its robots, who is connected) and the request being
+answered (`REQUEST`): the MCP app (`app.py`), the tool handlers (`tool_wiring.py`), the resources
+and the viewer all read it, and it imports none of them."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from contextvars import ContextVar
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, TypeVar
+
+import anyio
+from mcp.server.context import ServerRequestContext
+from mcp.server.mcpserver.exceptions import ToolError
+
+from robocog.server.clients import Clients
+from robocog.server.events import EventBus
+from robocog.server.fleet import Fleet, Robot
+from robocog.server.ownership import Driver, DriverIds
+from robocog.shared.protocol import DRIVER_META_KEY
+
+if TYPE_CHECKING:
+    from robocog.server.session import RobotSession
+
+T = TypeVar("T")
+
+
+#: The request a resource read or a completion is answering: the SDK gives static resources no
+#: Context, and a fleet needs the caller to know whose robot to read (set by `app.RobocogServer`).
+REQUEST: ContextVar[ServerRequestContext[Any, Any] | None] = ContextVar("robocog_request", default=None)
+
+
+@dataclass
+class AppState:
+    """What the lifespan owns: the robots (built in the background: one, or a fleet's first) and
+    who is connected."""
+
+    fleet: Fleet
+    ready: anyio.Event = field(default_factory=anyio.Event)
+    clients: Clients = field(default_factory=Clients)
+    failure: str | None = None
+    #: The live viewer's events (`robocog-server --view`); None without a viewer.
+    events: EventBus | None = None
+    #: Issues and checks the driver ids of sessionless clients (`ownership.py`).
+    ids: DriverIds = field(default_factory=lambda: DriverIds(origin=fleet_origin()))
+
+    @property
+    def session(self) -> RobotSession:
+        """The first robot's session (the only one, unless the server is a fleet)."""
+        first = self.fleet.first
+        if first is None:
+            raise ToolError(f"the robot is not available: {self.failure or 'still starting'}")
+        return first.session
+
+    async def robot(self, ctx: ServerRequestContext[Any, Any] | None = None, driver: Driver | None = None) -> Robot:
+        """The robot of `driver`, or of the client making request `ctx` (default: the request being
+        answered; with none, the first robot). On a fleet, a sessionless client that sends no driver
+        id has no robot to read (a tool call gives it one, and its id)."""
+        await self.ready.wait()
+        if self.failure is not None:
+            raise ToolError(f"the robot is not available: {self.failure}")
+        ctx = ctx or REQUEST.get()
+        if ctx is None or self.fleet.shared:
+            return await self.fleet.robot_for(None)
+        driver = driver or Driver.of(ctx, self.ids, issue=False)
+        if driver is None:
+            raise ToolError(
+                "this server is a fleet: each driver reads its own robot. A client without a session sends, in "
+                f'_meta["{DRIVER_META_KEY}"], the driver id its first tool call returned in its result\'s _meta'
+            )
+        return await self.fleet.robot_for(driver)
+
+    async def run(self, fn: Callable[[RobotSession], T], ctx: ServerRequestContext[Any, Any] | None = None) -> T:
+        """Run `fn(session)` on the caller's robot (see `robot`), serialised, to completion.
+
+        A `ValueError` (bad input the caller can fix) becomes a tool error with its message.
+        """
+        return await self.run_on(await self.robot(ctx), fn)
+
+    async def run_on(self, robot: Robot, fn: Callable[[RobotSession], T]) -> T:
+        """Run `fn(session)` on `robot`, serialised, to completion; a `ValueError` becomes a tool error."""
+        try:
+            return await self.fleet.call(robot, fn)
+        except ValueError as exc:
+            raise ToolError(str(exc)) from exc
+
+
+def fleet_origin() -> str:
+    """Which of a router's fleet processes this is (`ROBOCOG_FLEET_PROCESS` "i/n"), as the driver ids
+    it issues name it (the router sends an id's calls to the process that issued it); "0" alone."""
+    number = os.environ.get("ROBOCOG_FLEET_PROCESS", "1/1").split("/", 1)[0]
+    return str(int(number) - 1) if number.isdigit() and int(number) > 0 else "0"

@@ -1,0 +1,127 @@
+"""Where a result row came from: the published contract's version, and sha256 digests (over canonical
+JSON) of the tools as the model saw them, of the system prompt and of the task or suite instance.
+
+A row's `provenance` (see `robocog.shared.evaluation.AttemptRow`) holds them with the model's sampling
+parameters; the row itself carries robocog's version, the protocol, the model string and the seed.
+The same digests of what robocog ships (`shipped_tools_sha256`, `shipped_prompt_sha256`,
+`shipped_task_sha256`) tell whether a row ran on unmodified prompts, tools and task files: the
+leaderboard's *verified* mark. Canonical JSON: keys sorted, no spaces, UTF-8 (`canonical_json`).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from functools import cache
+from typing import Any
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from robocog.assets import ASSETS_DIR
+from robocog.shared.protocol import CONTROL_TOOLS, FURNITURE_TOOLS, VISION_TOOLS
+
+
+def canonical_json(value: Any) -> bytes:
+    """`value` as canonical JSON: keys sorted, no whitespace, UTF-8."""
+    return json.dumps(value, sort_keys=True, separators=(",", ":"), ensure_ascii=False).encode("utf-8")
+
+
+def sha256_of(value: Any) -> str:
+    """The hex sha256 of `value`'s canonical JSON."""
+    return hashlib.sha256(canonical_json(value)).hexdigest()
+
+
+def function_definition(name: str, description: str | None, input_schema: dict[str, Any] | None) -> dict[str, Any]:
+    """An MCP tool as the OpenAI / LiteLLM function definition a model is offered."""
+    return {
+        "type": "function",
+        "function": {
+            "name": name,
+            "description": description or name,
+            "parameters": input_schema or {"type": "object", "properties": {}},
+        },
+    }
+
+
+def offered(name: str, *, vision: bool, furniture: bool = True) -> bool:
+    """A tool a model is offered: never the harness's controls, the camera only to a vision model, open
+    and close only with `furniture` (under the robocog protocol, in a world with furniture that opens)."""
+    return (
+        name not in CONTROL_TOOLS
+        and (vision or name not in VISION_TOOLS)
+        and (furniture or name not in FURNITURE_TOOLS)
+    )
+
+
+def tools_sha256(definitions: list[dict[str, Any]]) -> str:
+    """The digest of the function definitions a model was offered (in name order)."""
+    return sha256_of(sorted(definitions, key=lambda d: str(d["function"]["name"])))
+
+
+def text_sha256(text: str) -> str:
+    """The digest of a prompt's text (surrounding whitespace aside)."""
+    return sha256_of(text.strip())
+
+
+class Provenance(BaseModel):
+    """What a row ran on, beyond the fields every row has (version, protocol, model_id, seed)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    contract: str | None = Field(description="the MCP contract version the server announced (None: it did not)")
+    tools: list[str] = Field(description="the tools the model was offered, by name")
+    tools_sha256: str = Field(description="sha256 of the offered tools' function definitions (canonical JSON)")
+    system_prompt: str = Field(description="the MCP prompt used as the system prompt, by name")
+    system_prompt_sha256: str = Field(description="sha256 of the system prompt's text")
+    task_sha256: str | None = Field(description="sha256 of the task's catalogue entry, or of the suite instance")
+    suite: str | None = Field(default=None, description="the suite of the instance, when the task is one")
+    params: dict[str, Any] = Field(default={}, description="the model's sampling parameters (the study's params)")
+    vision: bool = Field(default=False, description="the model was shown pictures")
+
+
+# --- what robocog ships ------------------------------------------------------------------------------
+
+
+@cache
+def _shipped_tools() -> dict[str, dict[str, Any]]:
+    contract = json.loads((ASSETS_DIR / "contract" / "eval.json").read_text(encoding="utf-8"))
+    return {
+        t["name"]: function_definition(t["name"], t.get("description") or t.get("title"), t.get("inputSchema"))
+        for t in contract["tools"]
+    }
+
+
+def shipped_tools_sha256(names: list[str]) -> str | None:
+    """The digest of the shipped contract's definitions of the tools `names` (None: one is not shipped)."""
+    shipped = _shipped_tools()
+    if any(n not in shipped for n in names):
+        return None
+    return tools_sha256([shipped[n] for n in names])
+
+
+def shipped_prompt_sha256(name: str) -> str | None:
+    """The digest of the shipped prompt `name` (assets/prompts/NAME.md), None when there is none."""
+    path = ASSETS_DIR / "prompts" / f"{name}.md"
+    if "/" in name or not path.is_file():
+        return None
+    return text_sha256(path.read_text(encoding="utf-8"))
+
+
+@cache
+def _shipped_tasks() -> dict[str, str]:
+    from robocog.shared.tasks import load_tasks
+
+    return {tid: sha256_of(spec.model_dump(mode="json")) for tid, spec in load_tasks(ASSETS_DIR / "tasks").items()}
+
+
+def shipped_task_sha256(task: str, suite: str | None = None) -> str | None:
+    """The digest of the shipped task `task` (assets/tasks) or of a shipped suite's instance; None when
+    robocog ships no such task."""
+    if suite is None:
+        return _shipped_tasks().get(task)
+    from robocog.shared.suite import find_instance
+
+    try:
+        return sha256_of(find_instance(suite, task).model_dump(mode="json"))
+    except (KeyError, ValueError, FileNotFoundError):
+        return None

@@ -1,0 +1,110 @@
+"""A study over the suite: its config selects instances, the runner prompts them and their earlier
+tasks and labels their rows, `robocog suite` generates and lists, and `robocog eval` runs an
+instance after its earlier task (or reports it not run when that failed)."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+from pydantic import ValidationError
+
+from robocog.agent.cli import main as cli
+from robocog.agent.harness.study import run_eval
+from robocog.agent.harness.suite_run import SuiteRun
+from robocog.shared.evaluation import EvalConfig, ModelSpec
+from robocog.shared.suite import find_instance, load_split, load_suite, parse_instances, select
+
+SUITE = load_suite()
+SPLITS = {split: load_split(SUITE.name, split) for split in SUITE.splits}
+
+
+def test_a_study_config_takes_a_suite_and_selects_its_instances() -> None:
+    models = [ModelSpec(model="scripted/planner")]
+    config = EvalConfig(models=models, suite=SUITE.name, split="test", instances=9, families=["swap", "memory"])
+    assert config.tasks == [i.id for i in select(SPLITS["test"], families=["swap", "memory"], limit=9)]
+    assert {t.split("-")[1] for t in config.tasks} == {"swap", "memory"}
+    assert EvalConfig.model_validate(config.model_dump()).tasks == config.tasks  # a config read back
+    for bad, message in (
+        ({"suite": SUITE.name, "tasks": ["T1"]}, "either tasks or a suite's instances"),
+        ({"instances": 3}, "give the suite"),
+        ({"suite": SUITE.name, "families": ["juggling"]}, "no such family ['juggling']"),
+        ({"suite": SUITE.name, "split": "holdout"}, "no such split"),
+    ):
+        with pytest.raises(ValidationError, match=re.escape(message)):
+            EvalConfig.model_validate({"models": [{"model": "scripted/planner"}], **bad})
+
+
+def test_the_runner_prompts_instances_and_their_earlier_tasks_and_labels_their_rows() -> None:
+    config = EvalConfig(models=[ModelSpec(model="scripted/planner")], suite=SUITE.name, families=["memory"])
+    run = SuiteRun.of(config)
+    inst = run.instances[config.tasks[0]]
+    assert run.prompt(inst.id) == inst.prompt and run.prompt(f"{inst.id}-pre1") == inst.prelude[0].prompt
+    assert run.prompt(f"{inst.id}-pre2") is None and run.prompt("T1") is None
+    assert run.row_fields(inst.id) == {
+        "family": "memory",
+        "instance": inst.id,
+        "feasible": True,
+        "optimal_steps": inst.optimal_steps,
+    }
+    assert run.row_fields("T1") == {} and SuiteRun.of(EvalConfig(models=config.models)).instances == {}
+
+
+def test_robocog_suite_generates_and_lists(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "mini.jsonl"
+    assert cli.main(["suite", "generate", "--split", "test", "--seed", "3", "--per-family", "1", "-o", str(out)]) == 0
+    mini = parse_instances(out.read_text(encoding="utf-8"), str(out))
+    assert [i.family for i in mini] == SUITE.families
+    assert cli.main(["suite", "list"]) == 0
+    listed = capsys.readouterr().out
+    assert all(f in listed for f in SUITE.families) and "Swap the mug and the cube." in listed
+    assert cli.main(["suite", "list", "--split", "dev"]) == 0
+    assert SPLITS["dev"][0].prompt in capsys.readouterr().out
+    assert cli.main(["suite", "generate", "--split", "holdout"]) == 2
+    assert "has no split 'holdout'" in capsys.readouterr().err
+
+
+@pytest.mark.anyio
+async def test_a_study_runs_an_instance_after_its_earlier_task_and_labels_the_row(tmp_path: Path) -> None:
+    """One memory instance through `robocog eval`'s runner (a server process): the earlier task runs
+    as its own traced episode, the instance's row carries its family and optimum."""
+    config = EvalConfig(
+        name="suite-test",
+        models=[ModelSpec(model="scripted/planner")],
+        suite=SUITE.name,
+        families=["memory"],
+        instances=1,
+        trials=1,
+        memory_iterations=1,
+    )
+    rows = await run_eval(config, tmp_path / "r.jsonl")
+    inst = find_instance(SUITE.name, config.tasks[0])
+    assert [(r.task, r.family, r.instance, r.feasible, r.optimal_steps) for r in rows] == [
+        (inst.id, "memory", inst.id, True, inst.optimal_steps)
+    ]
+    assert rows[0].true_success and rows[0].believed_success, rows[0].reason
+    traces = sorted(p.name for p in (tmp_path / "r.traces").rglob("*.jsonl"))
+    assert traces == [f"iter-0-{inst.id}-pre1.jsonl", f"iter-0-{inst.id}.jsonl"]
+
+
+@pytest.mark.anyio
+async def test_an_instance_whose_earlier_task_failed_is_a_failure_not_run(tmp_path: Path) -> None:
+    """A model that never acts fails the earlier task, so the instance would start where it should
+    end (already solved): its row is a failure saying why, and the instance itself never runs."""
+    config = EvalConfig(
+        name="suite-test",
+        models=[ModelSpec(model="scripted/refuser")],
+        suite=SUITE.name,
+        families=["memory"],
+        instances=1,
+        trials=1,
+        memory_iterations=1,
+        max_invocations=1,
+    )
+    rows = await run_eval(config, tmp_path / "r.jsonl")
+    inst = find_instance(SUITE.name, config.tasks[0])
+    assert [(r.task, r.family, r.true_success) for r in rows] == [(inst.id, "memory", False)]
+    assert rows[0].reason.startswith(f"its earlier task {inst.id}-pre1 failed, so it was not run")
+    traces = sorted(p.name for p in (tmp_path / "r.traces").rglob("*.jsonl"))
+    assert traces == [f"iter-0-{inst.id}-pre1.jsonl"], "the instance itself never ran"
