@@ -34,6 +34,7 @@ class EvalProtocol:
     keep_scratchpad: bool  # the scratchpad carries over between the tasks of a memory iteration
     search_k: int  # search_memory's default number of results
     offers_camera: bool  # a vision model is offered the camera (`look`); the paper's protocol never does
+    offers_furniture: bool = True  # open and close are offered; the paper's protocol never does
 
     def first_message(self, task: str, description: str | None) -> str:
         """The user message that starts a task."""
@@ -79,6 +80,7 @@ PROTOCOLS: dict[ProtocolName, EvalProtocol] = {
         keep_scratchpad=True,
         search_k=5,
         offers_camera=False,
+        offers_furniture=False,
     ),
     "robocog": EvalProtocol(
         name="robocog",

@@ -139,6 +139,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         namespace=args.memory_namespace,
         memory_labels=args.memory_labels,
         search_k=args.search_k,
+        observe=args.observe,
     )
     try:
         server = build_server(

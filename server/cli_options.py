@@ -124,10 +124,18 @@ def build_parser() -> argparse.ArgumentParser:
         "--scene",
         type=Path,
         default=None,
-        help="a scene YAML, or a shipped scene's name: household (the paper's, the default), suite_house, flat",
+        help="a scene YAML, or a shipped scene's name: household (the paper's, the default), suite_house, flat, "
+        "kitchen_plus",
     )
     w.add_argument("--seed", type=int, default=None, help="seed of the world's random generator")
     w.add_argument("--randomize", action="store_true", help="start objects on seeded random free positions")
+    w.add_argument(
+        "--observe",
+        choices=("location", "room", "house"),
+        default="house",
+        help="what look_around reveals: the robot's location, its room, or the whole house (the default; "
+        "reset_world(observe=...) changes it per episode)",
+    )
     w.add_argument("--gui", action="store_true", help="open the PyBullet GUI (needs a display)")
     w.add_argument(
         "--processes",

@@ -8,6 +8,8 @@ from pathlib import Path
 from typing import Literal
 
 MemoryLabels = Literal["believed", "verified"]
+#: What look_around reveals (`robocog.shared.results.Observe`): the robot's location, its room, or the house.
+Observe = Literal["location", "room", "house"]
 
 #: The log level of a failed action or bad input: above info, below warning (MCP's "notice").
 NOTICE = 25
@@ -33,6 +35,7 @@ class SessionConfig:
     namespace: str = "default"
     memory_labels: MemoryLabels = "believed"
     search_k: int = 3
+    observe: Observe = "house"
 
 
 @dataclass(frozen=True)

@@ -1,6 +1,6 @@
 """Consent before acting (`robocog-server --confirm-actions`): the user allows each move of the robot.
 
-With the flag, every robot tool that moves the robot or an object (move_to, grab, place) first asks
+With the flag, every robot tool that moves the robot or an object (move_to, grab, place, open, close) first asks
 the user through MCP elicitation: "allow once", "allow for this session" or "deny". The SDK's
 resolvers carry the question on either protocol (a server-to-client request up to 2025-11-25; an
 `InputRequiredResult` and a retry from 2026-07-28), so a tool only declares that it needs an answer.

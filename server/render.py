@@ -1,4 +1,5 @@
-"""A top-down picture of the world: rooms, walls, furniture, the semantic map, objects and robot.
+"""A top-down picture of the world: rooms, walls, furniture (a drawer or door where it is, open or
+closed), the semantic map, objects and robot.
 
 Rendered headless with matplotlib's Agg canvas (no pyplot, no display, no global state), from
 the scene and the ground-truth state, so it shows where things really are.
@@ -40,6 +41,13 @@ def render_top_down(world: World, *, width_px: int = 1100, dpi: int = 100) -> by
         for part in item.parts:
             (cx, cy, _), (sx, sy, _) = part.center, part.size
             ax.add_patch(Rectangle((cx - sx / 2, cy - sy / 2), sx, sy, color=part.color[:3], alpha=0.6))
+    for f in state.furniture:  # furniture that opens: its carcass, its drawer or door where physics has it
+        box = scene.container(f.name)
+        (cx, cy, _), (sx, sy, _) = box.center, box.size
+        ax.add_patch(Rectangle((cx - sx / 2, cy - sy / 2), sx, sy, color=box.color[:3], alpha=0.6, ec="0.3"))
+        (mx0, my0, _), (mx1, my1, _) = world.drawer_or_door_aabb(f.name)
+        ax.add_patch(Rectangle((mx0, my0), mx1 - mx0, my1 - my0, color="0.25", alpha=0.5))
+        ax.annotate(f"{f.name} ({f.state})", (cx, cy), xytext=(-20, 0), textcoords="offset points", fontsize=7)
     for pos in scene.place_positions:
         (cx, cy), (sx, sy) = pos.center, pos.size
         ax.add_patch(Rectangle((cx - sx / 2, cy - sy / 2), sx, sy, fill=False, ls="--", lw=0.8, ec="0.45"))

@@ -18,7 +18,7 @@ from typing import Any, Protocol, TypeVar
 
 from pydantic import BaseModel
 
-from robocog.server.config import NOTICE, MemoryLabels, SessionConfig
+from robocog.server.config import NOTICE, MemoryLabels, Observe, SessionConfig
 from robocog.server.memory.episodic import EpisodicMemory
 from robocog.server.memory.scratchpad import Scratchpad
 from robocog.server.tools.base import Caller, Tool
@@ -82,6 +82,8 @@ class RobotSession:
         self.memory_labels: MemoryLabels = config.memory_labels
         #: How many experiences search_memory returns when the model does not say (reset_world sets it).
         self.search_k = config.search_k
+        #: What look_around reveals: the robot's location, its room, or the house (reset_world sets it).
+        self.observe: Observe = config.observe
         options = {"randomize": True} if config.randomize else None
         self.world = world or World(config.scene, seed=config.seed, options=options, gui=config.gui)
         #: The worlds by scene name: the session's own, and the last other scene a suite instance
@@ -157,6 +159,7 @@ class RobotSession:
         self.use_namespace(self.config.namespace)
         self.memory_labels = self.config.memory_labels
         self.search_k = self.config.search_k
+        self.observe = self.config.observe
         self.reset(seed=self.config.seed, options={"randomize": True} if self.config.randomize else None)
 
     def warm_up(self) -> None:

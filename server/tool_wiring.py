@@ -134,7 +134,9 @@ def register_tool(mcp: MCPServer[AppState], tool: Tool[Any], access: Access) -> 
                 result = await state.run_on(robot, lambda session: session.invoke(tool, arguments, caller))
         finally:
             await state.clients.send(ctx.request_context, records)
-        if tool.changes_world and getattr(result, "status", None) != "failure":
+        # A blocked open or close failed, but the drawer or door moved as far as it could.
+        moved = getattr(result, "status", None) != "failure" or getattr(result, "error", None) == "blocked"
+        if tool.changes_world and moved:
             if state.fleet.shared:
                 await state.clients.world_changed()
                 for uri in WORLD_RESOURCES:  # clients on 2026-07-28 and later listen on subscriptions/listen

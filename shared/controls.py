@@ -50,8 +50,10 @@ class EvalControls:
         memory_namespace: str | None = None,
         instance: str | None = None,
         suite: str | None = None,
+        observe: Literal["location", "room", "house"] | None = None,
     ) -> dict[str, Any]:
-        """The start state again (a new episode), or a suite instance's start; answers the world state."""
+        """The start state again (a new episode), or a suite instance's start; answers the world state.
+        `observe`, when given, is what look_around reveals from now on (contract 3.1)."""
         arguments: dict[str, Any] = {"seed": seed, "randomize": randomize}
         optional = {
             "memory_labels": memory_labels,
@@ -59,6 +61,7 @@ class EvalControls:
             "memory_namespace": memory_namespace,
             "instance": instance,
             "suite": suite,
+            "observe": observe,
         }
         arguments.update({k: v for k, v in optional.items() if v is not None})
         if instance is not None:  # an instance sets its own start: no seed or randomization of ours

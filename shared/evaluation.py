@@ -49,6 +49,12 @@ class EvalConfig(BaseModel):
     memory_labels: Literal["believed", "verified"] = Field(
         default="believed", description="'believed' (the paper) or 'verified' (the ground truth labels memory)"
     )
+    observe: Literal["location", "room", "house"] | None = Field(
+        default=None,
+        description="what look_around reveals in every episode: the robot's 'location', its 'room' or the whole "
+        "'house' (default: the server's --observe, itself 'house'); run a study twice to compare partial with "
+        "full observation on the same instances",
+    )
     keep_memory: bool = Field(
         default=False,
         description="keep each unit's memory namespace on the server when the unit ends (default: it is dropped, "
@@ -140,6 +146,12 @@ class AttemptRow(BaseModel):
     seed: int
     memory_labels: Literal["believed", "verified"]
     protocol: Literal["paper", "robocog"] = "robocog"
+    observe: Literal["location", "room", "house"] | None = Field(
+        default=None,
+        description="what look_around revealed, when the study set it (absent: the server's own, by default the "
+        "whole house)",
+        exclude_if=lambda v: v is None,
+    )
     trace: str | None = Field(description="the attempt's trace file, relative to the results file")
     version: str
     reason: str = Field(default="", description="the ground-truth verdict's reason")

@@ -18,7 +18,8 @@ FLEET_FULL = "robots of this server are driven by other sessions"
 CONTROL_TOOLS = frozenset({"reset_world", "begin_task", "check_task", "clear_memory"})
 
 #: The eight robot tools of the paper, in its order: what a text-only model is offered (robocog's own
-#: client; robocog.inspect). The server's ROBOT_TOOLS are these and the VISION_TOOLS (a test holds it).
+#: client; robocog.inspect). The server's ROBOT_TOOLS are these, the VISION_TOOLS and the FURNITURE_TOOLS (a
+#: test holds it).
 PAPER_TOOLS: tuple[str, ...] = (
     "look_around",
     "move_to",
@@ -34,9 +35,13 @@ PAPER_TOOLS: tuple[str, ...] = (
 #: `--vision`), and never under the paper's protocol, whose models had the eight tools of the paper.
 VISION_TOOLS = frozenset({"look"})
 
+#: Tools that open and close furniture (drawers, cabinets, fridges): the `robocog` protocol offers them,
+#: the paper's never does (its models had the eight tools of the paper).
+FURNITURE_TOOLS = frozenset({"open", "close"})
+
 #: The version of the published MCP contract (assets/contract/, CHANGELOG.md there). The server announces
 #: it in its instructions as "MCP contract X.Y"; `robocog contract` reads it back from there.
-CONTRACT_VERSION = "3.0"
+CONTRACT_VERSION = "3.1"
 
 #: The contract version in a server's instructions: "MCP contract 1.0", "contract 2.3".
 CONTRACT_VERSION_PATTERN = re.compile(r"\bcontract\s+v?(\d+(?:\.\d+)+)\b", re.IGNORECASE)

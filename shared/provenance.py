@@ -18,7 +18,7 @@ from typing import Any
 from pydantic import BaseModel, ConfigDict, Field
 
 from robocog.assets import ASSETS_DIR
-from robocog.shared.protocol import CONTROL_TOOLS, VISION_TOOLS
+from robocog.shared.protocol import CONTROL_TOOLS, FURNITURE_TOOLS, VISION_TOOLS
 
 
 def canonical_json(value: Any) -> bytes:
@@ -43,9 +43,14 @@ def function_definition(name: str, description: str | None, input_schema: dict[s
     }
 
 
-def offered(name: str, *, vision: bool) -> bool:
-    """A tool a model is offered: never the harness's controls, the camera only to a vision model."""
-    return name not in CONTROL_TOOLS and (vision or name not in VISION_TOOLS)
+def offered(name: str, *, vision: bool, furniture: bool = True) -> bool:
+    """A tool a model is offered: never the harness's controls, the camera only to a vision model, open
+    and close only with `furniture` (under the robocog protocol, in a world with furniture that opens)."""
+    return (
+        name not in CONTROL_TOOLS
+        and (vision or name not in VISION_TOOLS)
+        and (furniture or name not in FURNITURE_TOOLS)
+    )
 
 
 def tools_sha256(definitions: list[dict[str, Any]]) -> str:

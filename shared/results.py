@@ -53,12 +53,42 @@ class LocationView(BaseModel):
     place_positions: list[PositionView] = Field(description="where objects can be placed here")
 
 
+#: What look_around reveals: the robot's own location, the room it is in, or the whole house.
+Observe = Literal["location", "room", "house"]
+#: A container is "closed" (nothing inside can be seen or reached) or "open" (part or all the way).
+OpenState = Literal["open", "closed"]
+
+
+def _absent(value: object) -> bool:
+    """Left out of a result when it says nothing (None, or an empty list): worlds without containers, and
+    look_around under full observation, read exactly as they did before these fields existed."""
+    return value is None or value == []
+
+
+class FurnitureView(BaseModel):
+    """Furniture that opens (a drawer, a cabinet, a fridge) as the robot perceives it."""
+
+    name: str = Field(description="the furniture's name, to pass to open() and close()")
+    kind: Literal["drawer", "cabinet", "fridge"]
+    location: str = Field(description="the location the robot stands at to open it")
+    state: OpenState = Field(description="'closed': what is inside can be neither seen nor reached")
+
+
 class LookAroundResult(ActionResult):
     """The robot's view of the world."""
 
     location: str = Field(description="where the robot is")
     holding: str | None = Field(default=None, description="the object in the robot's hand, if any")
     locations: list[LocationView] = Field(default=[], description="every location with its objects")
+    furniture: list[FurnitureView] = Field(
+        default=[], description="furniture that opens, at the locations seen", exclude_if=_absent
+    )
+    observed: Observe | None = Field(
+        default=None,
+        description="under partial observation, what was seen: the robot's 'location' or its 'room', and "
+        "`locations` lists only those (absent: the whole house)",
+        exclude_if=_absent,
+    )
 
 
 class MoveResult(ActionResult):
@@ -74,6 +104,33 @@ class GrabResult(ActionResult):
 
     object: str | None = Field(default=None, description="the object the action was about")
     holding: str | None = Field(default=None, description="the object in the robot's hand afterwards")
+
+
+FurnitureError = Literal[
+    "unknown_furniture",
+    "not_openable",
+    "not_at_location",
+    "already_holding",
+    "out_of_reach",
+    "blocked",
+]
+
+
+class OpenCloseResult(BaseModel):
+    """The outcome of open or close: what physics did to the furniture's joint (an action's result, with
+    error codes of its own)."""
+
+    status: Status = Field(description="'success' if the action did what was asked, else 'failure'")
+    message: str = Field(description="what happened, and on failure what to do about it")
+    error: FurnitureError | None = Field(default=None, description="machine-readable reason of a failure")
+    suggestions: list[str] = Field(default=[], description="valid names close to a misspelt one")
+    furniture: str = Field(description="the furniture the action was about")
+    outcome: Literal["opened", "closed", "already_open", "already_closed", "blocked"] | None = Field(
+        default=None, description="what happened to the drawer or door, when the robot got to its handle"
+    )
+    state: OpenState | None = Field(default=None, description="the furniture's state afterwards")
+    opening: float | None = Field(default=None, description="how far open afterwards, 0 (closed) to 1 (fully)")
+    steps: int = Field(default=0, description="physics steps the action took")
 
 
 class PlaceResult(ActionResult):
@@ -160,6 +217,11 @@ class ObjectPlacement(BaseModel):
     xyz: tuple[float, float, float]
     resting: bool = Field(description="at rest and supported (not moving, not held)")
     room: str | None = None
+    inside: str | None = Field(
+        default=None,
+        description="the container (drawer, cabinet, fridge) whose interior holds it, open or closed",
+        exclude_if=_absent,
+    )
 
 
 class PositionState(BaseModel):
@@ -179,6 +241,13 @@ class RobotState(BaseModel):
     holding: str | None = None
 
 
+class FurnitureState(FurnitureView):
+    """Furniture that opens, from the physics state: its joint, and what its interior holds."""
+
+    opening: float = Field(description="how far open, 0 (closed) to 1 (fully open)")
+    contents: list[str] = Field(default=[], description="the objects inside, seen or not")
+
+
 class WorldState(BaseModel):
     """The ground truth of the whole world."""
 
@@ -187,6 +256,9 @@ class WorldState(BaseModel):
     positions: list[PositionState]
     sim_time_s: float
     steps: int
+    furniture: list[FurnitureState] = Field(
+        default=[], description="furniture that opens (absent when there is none)", exclude_if=_absent
+    )
 
 
 class ObjectVerdict(BaseModel):

@@ -75,14 +75,60 @@ class Furniture(_Strict):
     parts: list[Box] = Field(min_length=1)
 
 
+#: The kinds of articulated furniture: a drawer slides out (a prismatic joint), a cabinet's or a fridge's
+#: door swings open (a revolute joint).
+ContainerKind = Literal["drawer", "cabinet", "fridge"]
+#: The direction a container's opening faces (towards where the robot stands).
+Facing = Literal["+x", "-x", "+y", "-y"]
+
+
+class Container(_Strict):
+    """Furniture that opens: a drawer unit, a cabinet or a fridge, built in physics from its dimensions
+    (a carcass open at the front, and a drawer that slides out of it or a door hinged on one side).
+
+    Place positions inside it name the container as their `support` (its interior floor: the drawer's
+    bottom, the carcass's bottom for a cabinet or a fridge). While it is closed, nothing inside can be
+    reached or seen; `open` and `close` drive its joint with a motor (`robocog.shared.containers` has
+    the geometry).
+    """
+
+    name: str
+    kind: ContainerKind
+    location: str = Field(description="the location the robot stands at to open it and reach inside")
+    center: Vec3 = Field(description="centre of the carcass in world coordinates, metres")
+    size: Vec3 = Field(description="outer extents x, y, z in metres, the closed drawer or door included")
+    facing: Facing = Field(description="the side the opening faces, e.g. '-y' for a front towards -y")
+    hinge: Literal["left", "right"] = Field(
+        default="left", description="the door's hinged side, as seen from the front (cabinet, fridge)"
+    )
+    wall: Positive = Field(default=0.02, description="panel thickness, metres")
+    travel: Positive | None = Field(
+        default=None,
+        description="how far it opens: metres a drawer slides out (default 0.8 of its depth), or degrees "
+        "a door swings (default 90)",
+    )
+    color: Rgba = (0.6, 0.45, 0.3, 1.0)
+
+    @model_validator(mode="after")
+    def _sound(self) -> Container:
+        if min(self.size) <= 4 * self.wall:
+            raise ValueError("size: must exceed four wall thicknesses in x, y and z")
+        if self.kind != "drawer" and self.travel is not None and not 0 < self.travel <= 120:
+            raise ValueError("travel: a door opens by at most 120 degrees")
+        depth = self.size[0] if self.facing in ("+x", "-x") else self.size[1]
+        if self.kind == "drawer" and self.travel is not None and self.travel >= depth - 2 * self.wall:
+            raise ValueError(f"travel: a drawer slides out by less than its depth ({depth:g} m) less two walls")
+        return self
+
+
 class PlacePosition(_Strict):
     """A region on a support surface at a location where one object may rest."""
 
     location: str
     name: str = Field(description="the position's name within its location, e.g. 'top' or 'floor'")
     center: Vec2
-    size: Vec2 = Field(description="extent of the region in x and y, metres")
-    support: str = Field(description="'floor' or 'FURNITURE/PART', the surface an object rests on")
+    size: Vec2 = Field(description="extent of the region in x and y, metres (a drawer's: when it is closed)")
+    support: str = Field(description="'floor', 'FURNITURE/PART', or a container's name, the surface an object rests on")
 
 
 class ObjectStart(_Strict):
@@ -170,6 +216,7 @@ class Scene(_Strict):
     locations: list[Location] = Field(min_length=1)
     edges: list[tuple[str, str]] = []
     furniture: list[Furniture] = []
+    containers: list[Container] = []
     place_positions: list[PlacePosition] = []
     objects: list[SceneObject] = []
     location_radius: Positive = Field(
@@ -181,7 +228,7 @@ class Scene(_Strict):
         names = [loc.name for loc in self.locations]
         _unique("locations", names)
         _unique("objects", [o.name for o in self.objects])
-        _unique("furniture", [f.name for f in self.furniture])
+        _unique("furniture and containers", [f.name for f in self.furniture] + [c.name for c in self.containers])
         known = set(names)
         if self.robot_start not in known:
             raise ValueError(f"robot_start: {self.robot_start!r} is not a location (known: {sorted(known)})")
@@ -190,14 +237,18 @@ class Scene(_Strict):
                 if end not in known:
                     raise ValueError(f"edges[{i}]: {end!r} is not a location")
         parts = {f"{f.name}/{p.name}" for f in self.furniture for p in f.parts}
+        for i, box in enumerate(self.containers):
+            if box.location not in known:
+                raise ValueError(f"containers[{i}] ({box.name}): location {box.location!r} is not a location")
+        parts |= {c.name for c in self.containers}
         seen: set[tuple[str, str]] = set()
         for i, pos in enumerate(self.place_positions):
             if pos.location not in known:
                 raise ValueError(f"place_positions[{i}]: location {pos.location!r} is not a location")
             if pos.support != "floor" and pos.support not in parts:
                 raise ValueError(
-                    f"place_positions[{i}]: support {pos.support!r} is neither 'floor' nor a furniture part "
-                    f"(known parts: {sorted(parts)})"
+                    f"place_positions[{i}]: support {pos.support!r} is neither 'floor', a furniture part nor a "
+                    f"container (known: {sorted(parts)})"
                 )
             key = (pos.location, pos.name)
             if key in seen:
@@ -237,6 +288,13 @@ class Scene(_Strict):
         compared without case, extra spaces or a leading article. Several when the text is ambiguous."""
         key = referring_key(text)
         return [o.name for o in self.objects if key in {referring_key(o.name), *map(referring_key, o.descriptions)}]
+
+    def container(self, name: str) -> Container:
+        """The container called `name` (exact)."""
+        for box in self.containers:
+            if box.name == name:
+                return box
+        raise KeyError(name)
 
     def location(self, name: str) -> Location:
         """The location called `name` (exact)."""

@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 from robocog.shared.config_files import Vec2
+from robocog.shared.containers import geometry
 from robocog.shared.scene import Scene, Wall
 
 #: Metres from a location to the centre of one of its place positions that the arm reaches (the
@@ -61,8 +62,10 @@ def layout_problems(scene: Scene) -> list[str]:
     The schema checks names and references; this checks the geometry a world needs: every location
     reachable from the robot's start over the edges, inside a room and clear of walls and furniture;
     no two pieces of furniture, nor furniture and a wall, overlapping; each place position on its
-    support (a furniture part's top, or free floor), within the arm's reach of its location, and
-    apart from the other positions on the same surface.
+    support (a furniture part's top, a container's interior, or free floor), within the arm's reach of
+    its location, and apart from the other positions on the same surface; and each container clear of
+    walls, furniture and other containers, with the floor its drawer or door sweeps as it opens clear
+    of them too (`container_problems`).
     """
     problems: list[str] = []
     # The navigation graph is connected.
@@ -80,6 +83,7 @@ def layout_problems(scene: Scene) -> list[str]:
         problems.append(f"locations {cut_off} cannot be reached from {scene.robot_start!r} over the edges")
     boxes = [(f"{f.name}/{p.name}", f.name, p) for f in scene.furniture for p in f.parts]
     footprints = {key: _rect(p.center, p.size) for key, _, p in boxes}
+    problems += container_problems(scene, footprints)
     # Furniture against furniture and walls.
     for i, (key, owner, _) in enumerate(boxes):
         for other, other_owner, _ in boxes[i + 1 :]:
@@ -99,7 +103,11 @@ def layout_problems(scene: Scene) -> list[str]:
         for key, _, _ in boxes:
             if _overlap(base, footprints[key]):
                 problems.append(f"location {loc.name!r}: the robot would stand in furniture {key}")
+        for box in scene.containers:
+            if _overlap(base, _rect(box.center, box.size)):
+                problems.append(f"location {loc.name!r}: the robot would stand in container {box.name}")
     # Place positions: on their support, in reach, apart.
+    containers = {box.name: geometry(box) for box in scene.containers}
     for i, pos in enumerate(scene.place_positions):
         label = f"place position {pos.location} / {pos.name}"
         region = _rect(pos.center, pos.size)
@@ -107,7 +115,14 @@ def layout_problems(scene: Scene) -> list[str]:
         far = math.hypot(pos.center[0] - loc.x, pos.center[1] - loc.y)
         if far > REACH_M:
             problems.append(f"{label}: {far:.2f} m from its location, past the arm's reach ({REACH_M} m)")
-        if pos.support == "floor":
+        if pos.support in containers:
+            x0, y0, x1, y1 = containers[pos.support].interior_rect()
+            if not (x0 <= region[0] and region[2] <= x1 and y0 <= region[1] and region[3] <= y1):
+                problems.append(f"{label}: its region is not inside {pos.support}")
+        elif pos.support == "floor":
+            for box in scene.containers:
+                if _overlap(region, _rect(box.center, box.size)):
+                    problems.append(f"{label}: the floor there is under container {box.name}")
             for key, _, _ in boxes:
                 if _overlap(region, footprints[key]):
                     problems.append(f"{label}: the floor there is under furniture {key}")
@@ -121,4 +136,35 @@ def layout_problems(scene: Scene) -> list[str]:
         for later in scene.place_positions[i + 1 :]:
             if later.support == pos.support and _overlap(region, _rect(later.center, later.size)):
                 problems.append(f"{label} overlaps {later.location} / {later.name} on {pos.support}")
+    return problems
+
+
+def container_problems(scene: Scene, furniture: dict[str, _Rect]) -> list[str]:
+    """What stops a container from standing or opening: its carcass, or the floor its drawer or door
+    sweeps as it opens fully, overlapping a wall, furniture (`furniture`: footprints by part) or another
+    container (carcass or sweep), and its interior out of the arm's reach from its location."""
+    problems: list[str] = []
+    shapes = [geometry(box) for box in scene.containers]
+    for i, g in enumerate(shapes):
+        name = g.spec.name
+        for what, rect in (("", g.footprint()), ("the sweep of ", g.swept())):
+            for key, part in furniture.items():
+                if _overlap(rect, part):
+                    problems.append(f"container {name}: {what}it overlaps furniture {key}")
+            for j, wall in enumerate(scene.walls):
+                if _rect_wall_gap(rect, wall) < -1e-6:
+                    problems.append(f"container {name}: {what}it overlaps walls[{j}]")
+            for later in shapes[i + 1 :]:
+                for their, later_rect in (("", later.footprint()), ("the sweep of ", later.swept())):
+                    if what and their:
+                        continue  # two sweeps may share floor: only one opens at a time
+                    if _overlap(rect, later_rect):
+                        problems.append(f"container {name}: {what}it overlaps {their}container {later.spec.name}")
+        loc = scene.location(g.spec.location)
+        x0, y0, x1, y1 = g.interior_rect()
+        near = math.hypot(max(x0 - loc.x, 0.0, loc.x - x1), max(y0 - loc.y, 0.0, loc.y - y1))
+        if near > REACH_M:
+            problems.append(
+                f"container {name}: its interior is {near:.2f} m from {g.spec.location}, past the arm's reach"
+            )
     return problems

@@ -45,6 +45,8 @@ ROBOT_TOOLS = frozenset(
         "end_task",
         "search_memory",
         "look",
+        "open",
+        "close",
     }
 )
 

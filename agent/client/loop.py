@@ -25,7 +25,7 @@ from robocog.agent.client.settings import AgentSettings
 from robocog.agent.client.trace_sinks import Trace
 from robocog.agent.study_protocols import DESCRIPTION_URI, PROTOCOLS, EvalProtocol
 from robocog.shared.errors import ModelServiceError, ServerConnectionError
-from robocog.shared.protocol import FLEET_FULL, MODEL_META_KEY
+from robocog.shared.protocol import FLEET_FULL, FURNITURE_TOOLS, MODEL_META_KEY
 from robocog.shared.provenance import function_definition, offered
 from robocog.shared.trace import ModelTurn, Reinvoked, RunFinished, RunStarted, ToolCall, ToolResult, Verdict
 
@@ -60,13 +60,14 @@ class EpisodeResult:
         return self.outcome == "stopped"
 
 
-def function_definitions(tools: list[Tool], *, vision: bool = False) -> list[dict[str, Any]]:
-    """MCP tool schemas as OpenAI / LiteLLM function definitions: never the controls, and the camera
-    only with `vision` (a text-only model would get nothing from it)."""
+def function_definitions(tools: list[Tool], *, vision: bool = False, furniture: bool = True) -> list[dict[str, Any]]:
+    """MCP tool schemas as OpenAI / LiteLLM function definitions: never the controls, the camera only
+    with `vision` (a text-only model would get nothing from it), open and close only with `furniture`
+    (the paper's protocol offers its eight tools)."""
     return [
         function_definition(t.name, t.description or t.title, t.input_schema)
         for t in tools
-        if offered(t.name, vision=vision)
+        if offered(t.name, vision=vision, furniture=furniture)
     ]
 
 
@@ -102,7 +103,8 @@ async def run_episode(
     conversation); it is extended in place, and an empty one starts with the system prompt.
     """
     started = time.monotonic()
-    definitions = function_definitions(tools, vision=settings.vision and protocol.offers_camera)
+    furniture = protocol.offers_furniture and await world_has_furniture(client, tools)
+    definitions = function_definitions(tools, vision=settings.vision and protocol.offers_camera, furniture=furniture)
     names = {d["function"]["name"] for d in definitions}
     trace.emit(
         RunStarted(
@@ -193,6 +195,24 @@ async def run_episode(
         summary=summary,
         error=error,
     )
+
+
+#: The ground truth resource: its `furniture` says whether the world has anything that opens.
+STATE_URI = "robocog://world/state"
+
+
+async def world_has_furniture(client: Client, tools: list[Tool]) -> bool:
+    """Whether to offer open and close: only in a world with furniture that opens (its ground truth
+    lists some), so a model in a world without (the paper's household, the robocog-v1 suite) is offered
+    what it was before they existed. A server whose state cannot be read keeps what it publishes."""
+    if not any(t.name in FURNITURE_TOOLS for t in tools):
+        return False
+    try:
+        result = await client.read_resource(STATE_URI)
+        state = json.loads("".join(getattr(c, "text", "") for c in result.contents))
+    except Exception:
+        return True
+    return not isinstance(state, dict) or bool(state.get("furniture"))
 
 
 async def _describe(client: Client) -> str:

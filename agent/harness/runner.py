@@ -34,7 +34,7 @@ from typing import Any
 
 from robocog.agent.analysis.taxonomy import annotate
 from robocog.agent.client.connection import Robot, ServerSpec, connect, leaf_message
-from robocog.agent.client.loop import finish, function_definitions, run_episode
+from robocog.agent.client.loop import finish, function_definitions, run_episode, world_has_furniture
 from robocog.agent.client.model import resolve_api_key
 from robocog.agent.client.settings import AgentSettings
 from robocog.agent.client.trace_sinks import Trace
@@ -121,6 +121,8 @@ class Runner:
             "search_k": protocol.search_k,
             "memory_namespace": unit_namespace(cfg.name, spec.name, trial),
         }
+        if cfg.observe is not None:  # only when asked: a server before contract 3.1 does not know it
+            reset["observe"] = cfg.observe
         controls = self.controls(robot)
         for iteration in range(start_iteration, cfg.memory_iterations):
             await controls.reset_world(seed=seed, randomize=cfg.randomize, **reset)
@@ -213,6 +215,7 @@ class Runner:
             vision=spec.vision,
         )
         system_prompt = await robot.prompt(self.protocol.system_prompt)
+        furniture = self.protocol.offers_furniture and await world_has_furniture(robot.client, robot.tools)
         base = {
             "model": spec.name,
             "trial": trial,
@@ -221,12 +224,13 @@ class Runner:
             "seed": cfg.seed + trial,
             "memory_labels": cfg.memory_labels,
             "protocol": cfg.protocol,
+            "observe": cfg.observe,
             "trace": str(trace_path.relative_to(self.out.parent)),
             "version": __version__,
             "study": cfg.name,
             "model_id": spec.model,
             **self.suite.row_fields(task_id),
-            "provenance": self.provenance(robot, spec, task_id, system_prompt),
+            "provenance": self.provenance(robot, spec, task_id, system_prompt, furniture=furniture),
         }
         try:
             result = await run_episode(
@@ -286,11 +290,14 @@ class Runner:
         )
         return annotate(row, trace.events)  # the error taxonomy and robot actions, from the trace
 
-    def provenance(self, robot: Robot, spec: ModelSpec, task_id: str, system_prompt: str) -> Provenance:
-        """What the attempt runs on: the tools as the model is offered them, the system prompt, the task
-        (its catalogue entry, or the suite instance) and the model's sampling parameters."""
+    def provenance(
+        self, robot: Robot, spec: ModelSpec, task_id: str, system_prompt: str, *, furniture: bool = False
+    ) -> Provenance:
+        """What the attempt runs on: the tools as the model is offered them (open and close with
+        `furniture`: as `run_episode` decides), the system prompt, the task (its catalogue entry, or the
+        suite instance) and the model's sampling parameters."""
         vision = spec.vision and self.protocol.offers_camera
-        definitions = function_definitions(robot.tools, vision=vision)
+        definitions = function_definitions(robot.tools, vision=vision, furniture=furniture)
         task = self.suite.spec(task_id) or robot.catalogue.get(task_id)
         return Provenance(
             contract=robot.contract,

@@ -8,6 +8,7 @@ lists generically; the contract snapshot in tests/snapshots shows the change.
 from robocog.server.tools import (
     controls,
     end_task,
+    furniture,
     grab,
     look,
     look_around,
@@ -18,7 +19,7 @@ from robocog.server.tools import (
 )
 from robocog.server.tools.base import Tool
 
-#: Offered to models, in the paper's order, then ours (look: the camera).
+#: Offered to models, in the paper's order, then ours (look: the camera; open and close: furniture).
 ROBOT_TOOLS: tuple[Tool, ...] = (
     look_around.TOOL,
     move_to.TOOL,
@@ -29,6 +30,8 @@ ROBOT_TOOLS: tuple[Tool, ...] = (
     end_task.TOOL,
     search_memory.TOOL,
     look.TOOL,
+    furniture.OPEN,
+    furniture.CLOSE,
 )
 
 #: The eval profile's harness controls (never offered to a model).

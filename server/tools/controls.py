@@ -102,9 +102,16 @@ def reset_world(
     ] = None,
     instance: InstanceArg = None,
     suite: SuiteArg = DEFAULT_SUITE,
+    observe: Annotated[
+        Literal["location", "room", "house"] | None,
+        Field(
+            description="What look_around reveals from now on: the robot's 'location', its 'room', or the "
+            "whole 'house' (the server's --observe until set)"
+        ),
+    ] = None,
 ) -> WorldState:
     """Put the world back to its start state and begin a new episode. Episodic memory is kept.
-    memory_labels, search_k and memory_namespace, when given, hold from now on (until set again).
+    memory_labels, search_k, memory_namespace and observe, when given, hold from now on (until set again).
     With an instance of a suite: the world of the instance's scene, set to the instance's start
     (seed and randomize do not apply), and the instance's task (and its earlier tasks, ID-pre1, ...)
     can be begun and checked by id."""
@@ -120,6 +127,8 @@ def reset_world(
         robot.memory_labels = memory_labels
     if search_k is not None:
         robot.search_k = search_k
+    if observe is not None:
+        robot.observe = observe
     return state
 
 

@@ -54,6 +54,14 @@ def grab(robot: RobotSession, object: ObjectArg) -> GrabResult:
         )
     if not world.object_spec(name).graspable:
         return _out(name, "not_graspable", f"The {name} cannot be grasped: it is too large or heavy for the robot.")
+    shut = world.shut_in(name)
+    if shut is not None:
+        spec = world.scene.container(shut)
+        message = (
+            f"The {name} cannot be reached: it is inside the {shut.replace('_', ' ')}, which is closed. "
+            f"open('{shut}') at {spec.location} first."
+        )
+        return _out(name, "out_of_reach", message)
     here = world.robot_location()
     where = world.placement(name)
     if where.location != here:

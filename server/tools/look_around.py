@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from robocog.server.tools.base import READ_ONLY, Tool
-from robocog.shared.results import LocationView, LookAroundResult, PositionView
+from robocog.shared.results import FurnitureView, LocationView, LookAroundResult, PositionView
 
 if TYPE_CHECKING:
     from robocog.server.session import RobotSession
@@ -17,27 +17,40 @@ def look_around(robot: RobotSession) -> LookAroundResult:
     world = robot.world
     placements = world.placements()
     here, holding = world.robot_location(), world.holding
+    observed = world.observed_locations(robot.observe)
+    shown = [p for p in placements.values() if p.state != "held" and not world.hidden(p)]
     views = [
         LocationView(
             name=name,
             neighbours=list(world.map.neighbours[name]),
-            objects=[p.object for p in placements.values() if p.state != "held" and p.location == name],
+            objects=[p.object for p in shown if p.location == name],
             place_positions=[
                 PositionView(name=position, occupied_by=world.occupant(name, position))
-                for position in world.position_names(name)
+                for position in world.visible_positions(name)
             ],
         )
-        for name in world.map.names
+        for name in observed
+    ]
+    furniture = [
+        FurnitureView(name=f.name, kind=f.kind, location=f.location, state=f.state)
+        for f in map(world.furniture, world.container_names)
+        if f.location in observed
     ]
     hand = f"holding the {holding}" if holding else "holding nothing"
     visible = next(v for v in views if v.name == here)
     seen = ", ".join(visible.objects) or "no objects"
+    message = f"The robot is at {here}, {hand}. Here: {seen}."
+    if robot.observe != "house":
+        scope = "this location" if robot.observe == "location" or len(observed) == 1 else "this room"
+        message += f" Only {scope} can be seen from here; move elsewhere to see more."
     return LookAroundResult(
         status="success",
-        message=f"The robot is at {here}, {hand}. Here: {seen}.",
+        message=message,
         location=here,
         holding=holding,
         locations=views,
+        furniture=furniture,
+        observed=None if robot.observe == "house" else robot.observe,
     )
 
 

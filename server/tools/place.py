@@ -51,6 +51,11 @@ def place(robot: RobotSession, location: LocationArg, position: PositionArg) -> 
         listing = ", ".join(names) if names else "none (nothing can be placed here)"
         message = f"{loc} has no place position {position!r}. Its positions: {listing}."
         return _failure("unknown_position", message, held, loc, position, suggestions=closest(position, names) or names)
+    shut = world.shut_position(loc, pname)
+    if shut is not None:
+        inside = shut.replace("_", " ")
+        message = f"The {pname} position of {loc} is inside the {inside}, which is closed. open('{shut}') first."
+        return _failure("out_of_reach", message, held, loc, pname)
     occupant = world.occupant(loc, pname, ignore=held)
     if occupant is not None:
         free = [p for p in names if world.occupant(loc, p, ignore=held) is None]

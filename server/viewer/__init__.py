@@ -72,6 +72,14 @@ def scene_json(session: RobotSession) -> dict[str, Any]:
             }
             for f in scene.furniture
             for p in f.parts
+        ]
+        # Furniture that opens, drawn by its carcass (its state is the world's: `furniture` in world_json).
+        + [
+            {
+                "name": c.name,
+                "parts": [{"center": list(c.center[:2]), "size": list(c.size[:2]), "color": list(c.color)}],
+            }
+            for c in scene.containers
         ],
         "positions": [
             {"location": p.location, "name": p.name, "center": list(p.center), "size": list(p.size)}

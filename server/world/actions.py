@@ -165,7 +165,7 @@ def put_down(sim: Sim, location: str, position: str) -> Reach:
     (ox, oy, oz), _ = c.getBasePositionAndOrientation(obj.body)
     hand = robot.end_effector()
     drop_z = pos.surface_z + obj.bottom + spec.place_clearance
-    cx, cy = pos.spec.center
+    cx, cy = sim.center(pos)
     target_hand = (cx + hand[0] - ox, cy + hand[1] - oy, drop_z + hand[2] - oz)
     _, err = robot.solve_ik(target_hand)
     if err > spec.grasp_threshold:

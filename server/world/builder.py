@@ -13,6 +13,7 @@ import pybullet
 import pybullet_data
 from pybullet_utils.bullet_client import BulletClient
 
+from robocog.server.world import containers
 from robocog.server.world.cstdio import c_output_discarded
 from robocog.server.world.navigation import SemanticMap
 from robocog.server.world.robot import Robot
@@ -60,8 +61,17 @@ def build(client: BulletClient, scene: Scene, robot_spec: RobotSpec) -> Sim:
             static_bodies.append(body)
     for body in static_bodies:
         c.changeDynamics(body, -1, lateralFriction=0.9)
+    boxes = {spec.name: containers.build(c, spec) for spec in scene.containers}
+    for box in boxes.values():
+        for link in (-1, 0):
+            c.changeVisualShape(box.body, link, rgbaColor=list(box.geometry.spec.color))
+        parts[box.name] = box.body
+        part_top[box.name] = box.geometry.floor_z
+        static_bodies.append(box.body)
     positions = {
-        (pos.location, pos.name): Position(pos, parts[pos.support], part_top[pos.support])
+        (pos.location, pos.name): Position(
+            pos, parts[pos.support], part_top[pos.support], pos.support if pos.support in boxes else None
+        )
         for pos in scene.place_positions
     }
     objects = {obj.name: _object(c, obj) for obj in scene.objects}
@@ -77,6 +87,7 @@ def build(client: BulletClient, scene: Scene, robot_spec: RobotSpec) -> Sim:
         positions=positions,
         objects=objects,
         robot=Robot(c, robot_spec, start.x, start.y),
+        containers=boxes,
     )
     for obj in objects.values():
         _pose_at_start(sim, obj)

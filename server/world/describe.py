@@ -34,7 +34,8 @@ def describe(world: World) -> str:
     ```
 
     An empty list reads "none"; the object in the robot's hand is listed at the robot's location,
-    marked "(in your hand)".
+    marked "(in your hand)". What a closed drawer, cabinet or fridge holds is not listed, nor are the
+    place positions inside it.
     """
     placements = world.placements()
     here, held = world.robot_location(), world.holding
@@ -43,9 +44,9 @@ def describe(world: World) -> str:
         objects = [
             f"{p.object} (in your hand)" if p.object == held else p.object
             for p in placements.values()
-            if p.location == name
+            if p.location == name and not world.hidden(p)
         ]
-        positions = [f"{pos}: {_occupancy(world, name, pos)}" for pos in world.position_names(name)]
+        positions = [f"{pos}: {_occupancy(world, name, pos)}" for pos in world.visible_positions(name)]
         lines.append(f"- {name}")
         lines += _block("Objects here", objects)
         lines += _block("Place positions here", positions)

@@ -17,6 +17,7 @@ from pybullet_utils.bullet_client import BulletClient
 
 from robocog.server.world.navigation import SemanticMap
 from robocog.server.world.robot import Robot
+from robocog.shared.containers import Geometry
 from robocog.shared.robot_spec import RobotSpec
 from robocog.shared.scene import PlacePosition, Scene, SceneObject
 
@@ -28,6 +29,7 @@ class Position:
     spec: PlacePosition
     support_body: int
     surface_z: float
+    container: str | None = None  # the container whose interior floor supports it
 
     @property
     def key(self) -> tuple[str, str]:
@@ -46,6 +48,18 @@ class Body:
     body: int
     bottom: float  # distance from the body origin down to its lowest point, upright
     top: float  # distance from the body origin up to its highest point, upright
+
+
+@dataclass(frozen=True)
+class ContainerBody:
+    """A container's multibody: its carcass is the base, its drawer or door link 0 on the one joint."""
+
+    geometry: Geometry
+    body: int
+
+    @property
+    def name(self) -> str:
+        return self.geometry.spec.name
 
 
 @dataclass(frozen=True)
@@ -72,6 +86,7 @@ class Sim:
     robot: Robot
     grasp: Grasp | None = None
     steps: int = 0
+    containers: dict[str, ContainerBody] = field(default_factory=dict)  # name -> body, in scene order
     _step_simulation: Callable[[], None] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -107,7 +122,32 @@ class Sim:
         self.client.resetBaseVelocity(obj.body, [0, 0, 0], [0, 0, 0])
         self.wake(obj.body)
 
+    def joint(self, name: str) -> float:
+        """The joint position of the container `name` (0 closed; metres or radians open)."""
+        return float(self.client.getJointState(self.containers[name].body, 0)[0])
+
+    def shift(self, pos: Position) -> tuple[float, float]:
+        """How far a place position has moved from where the scene puts it: a drawer's slides out with it."""
+        if pos.container is None:
+            return 0.0, 0.0
+        box = self.containers[pos.container]
+        if not box.geometry.interior_moves:
+            return 0.0, 0.0
+        q = self.joint(pos.container)
+        fx, fy = box.geometry.facing
+        return fx * q, fy * q
+
+    def center(self, pos: Position) -> tuple[float, float]:
+        """A place position's centre now (a drawer's moves with the drawer)."""
+        (cx, cy), (dx, dy) = pos.spec.center, self.shift(pos)
+        return cx + dx, cy + dy
+
+    def holds_xy(self, pos: Position, x: float, y: float) -> bool:
+        """Whether (x, y) lies in a place position's region where it is now."""
+        dx, dy = self.shift(pos)
+        return pos.contains_xy(x - dx, y - dy)
+
     def put_on(self, obj: Body, pos: Position, yaw: float, xy: tuple[float, float] | None = None) -> None:
         """Stand an object upright just above a place position (at its centre unless `xy` is given)."""
-        x, y = xy if xy is not None else pos.spec.center
+        x, y = xy if xy is not None else self.center(pos)
         self.put(obj, x, y, pos.surface_z + obj.bottom + 0.001, yaw)

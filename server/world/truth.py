@@ -6,8 +6,9 @@ bookkeeping, and nothing here changes the simulation.
 
 from __future__ import annotations
 
+from robocog.server.world import containers
 from robocog.server.world.sim import Body, Position, Sim
-from robocog.shared.results import ObjectPlacement, PositionState, RobotState, WorldState
+from robocog.shared.results import FurnitureState, ObjectPlacement, PositionState, RobotState, WorldState
 
 
 def touches(sim: Sim, body: int, support: int) -> bool:
@@ -19,7 +20,7 @@ def position_of(sim: Sim, obj: Body) -> Position | None:
     (x, y, _z), _ = sim.client.getBasePositionAndOrientation(obj.body)
     bottom = sim.client.getAABB(obj.body)[0][2]
     for pos in sim.positions.values():
-        if pos.contains_xy(x, y) and pos.surface_z - 0.02 <= bottom <= pos.surface_z + 0.08:
+        if sim.holds_xy(pos, x, y) and pos.surface_z - 0.02 <= bottom <= pos.surface_z + 0.08:
             return pos
     return None
 
@@ -40,6 +41,7 @@ def placement(sim: Sim, name: str) -> ObjectPlacement:
     obj = sim.objects[name]
     (x, y, z), _ = sim.client.getBasePositionAndOrientation(obj.body)
     room = next((r.name for r in sim.scene.rooms if r.x[0] <= x <= r.x[1] and r.y[0] <= y <= r.y[1]), None)
+    inside = containers.container_at(sim, (x, y, z)) if sim.containers else None
     if holding(sim) == name:
         return ObjectPlacement(
             object=name,
@@ -48,6 +50,7 @@ def placement(sim: Sim, name: str) -> ObjectPlacement:
             xyz=(x, y, z),
             resting=False,
             room=room,
+            inside=inside,
         )
     resting = sim.speed(obj.body) < sim.scene.physics.rest_speed
     pos = position_of(sim, obj)
@@ -60,6 +63,7 @@ def placement(sim: Sim, name: str) -> ObjectPlacement:
             xyz=(x, y, z),
             resting=True,
             room=room,
+            inside=inside,
         )
     near, dist = sim.map.nearest(x, y)
     supported = resting and any(touches(sim, obj.body, b) for b in sim.static_bodies)
@@ -70,6 +74,7 @@ def placement(sim: Sim, name: str) -> ObjectPlacement:
         xyz=(x, y, z),
         resting=supported,
         room=room,
+        inside=inside,
     )
 
 
@@ -108,4 +113,33 @@ def state(sim: Sim) -> WorldState:
         ],
         sim_time_s=sim.steps * sim.scene.physics.time_step,
         steps=sim.steps,
+        furniture=[furniture(sim, name, by_name) for name in sim.containers],
     )
+
+
+def furniture(sim: Sim, name: str, by_name: dict[str, ObjectPlacement] | None = None) -> FurnitureState:
+    """A container's state from its joint, and the objects its interior holds."""
+    spec = sim.containers[name].geometry.spec
+    by_name = by_name if by_name is not None else placements(sim)
+    return FurnitureState(
+        name=name,
+        kind=spec.kind,
+        location=spec.location,
+        state="closed" if containers.is_closed(sim, name) else "open",
+        opening=round(containers.opening(sim, name), 3),
+        contents=[p.object for p in by_name.values() if p.inside == name],
+    )
+
+
+def hidden(sim: Sim, where: ObjectPlacement) -> str | None:
+    """The closed container an object is shut in (it can be neither seen nor reached), if any."""
+    if where.inside is not None and where.state != "held" and containers.is_closed(sim, where.inside):
+        return where.inside
+    return None
+
+
+def shut_position(sim: Sim, position: Position) -> str | None:
+    """The closed container a place position is inside, if any."""
+    if position.container is not None and containers.is_closed(sim, position.container):
+        return position.container
+    return None

@@ -16,19 +16,20 @@ import numpy as np
 import pybullet
 
 from robocog.assets import ASSETS_DIR
-from robocog.server.world import actions, episode, truth
+from robocog.server.world import actions, articulation, containers, episode, truth
 from robocog.server.world.actions import ProgressFn, Reach
+from robocog.server.world.articulation import Operation
 from robocog.server.world.builder import connect
 from robocog.server.world.navigation import SemanticMap
 from robocog.server.world.sim import Sim
-from robocog.shared.results import ObjectPlacement, WorldState
+from robocog.shared.results import FurnitureState, ObjectPlacement, Observe, WorldState
 from robocog.shared.robot_spec import load_robot
 from robocog.shared.scene import Scene, SceneObject
 from robocog.shared.scene_files import load_scene, scene_path
 
 DEFAULT_SCENE = ASSETS_DIR / "scenes" / "household.yaml"
 
-__all__ = ["DEFAULT_SCENE", "ProgressFn", "Reach", "World"]
+__all__ = ["DEFAULT_SCENE", "Operation", "ProgressFn", "Reach", "World"]
 
 
 class World:
@@ -105,8 +106,9 @@ class World:
         return [name for loc, name in self.sim.positions if loc == location]
 
     def furniture_locations(self) -> dict[str, str]:
-        """Each piece of furniture (scene order) and the location it stands at: the location of the
-        place positions it supports, else the location nearest the middle of its parts."""
+        """Each piece of furniture (scene order, then the containers) and the location it stands at: the
+        location of the place positions it supports, else the location nearest the middle of its parts;
+        a container's is its own."""
         supported = {p.support.split("/")[0]: p.location for p in self.scene.place_positions}
         out: dict[str, str] = {}
         for f in self.scene.furniture:
@@ -116,7 +118,13 @@ class World:
                 x = sum(b.center[0] for b in f.parts) / len(f.parts)
                 y = sum(b.center[1] for b in f.parts) / len(f.parts)
                 out[f.name] = self.map.nearest(x, y)[0]
+        out.update((box.name, box.location) for box in self.scene.containers)
         return out
+
+    @property
+    def container_names(self) -> list[str]:
+        """Every piece of furniture that opens (drawers, cabinets, fridges), in scene order."""
+        return list(self.sim.containers)
 
     # --- ground truth --------------------------------------------------------------------------
 
@@ -145,6 +153,51 @@ class World:
         """The whole ground truth."""
         return truth.state(self.sim)
 
+    def furniture(self, name: str) -> FurnitureState:
+        """A container's state (open or closed, from its joint) and what its interior holds."""
+        return truth.furniture(self.sim, name)
+
+    def blocking(self, name: str) -> list[str]:
+        """The objects touching the drawer or door of the container `name` (what may be in its way)."""
+        return containers.touching(self.sim, name)
+
+    def hidden(self, where: ObjectPlacement) -> bool:
+        """Whether an object is shut in a closed container (then it can be neither seen nor reached)."""
+        return truth.hidden(self.sim, where) is not None
+
+    def visible_positions(self, location: str) -> list[str]:
+        """The place positions of `location` not shut inside a closed container, in scene order."""
+        return [p for p in self.position_names(location) if self.shut_position(location, p) is None]
+
+    def observed_locations(self, observe: Observe) -> list[str]:
+        """The locations whose contents the robot perceives (map order): all of them ('house'), those in
+        the robot's room ('room'; its own location only when it stands in no room) or its own ('location')."""
+        here = self.robot_location()
+        if observe == "house":
+            return list(self.map.names)
+        if observe == "room":
+            room = self.room_of(*self.map.points[here])
+            if room is not None:
+                return [n for n in self.map.names if self.room_of(*self.map.points[n]) == room]
+        return [here]
+
+    def room_of(self, x: float, y: float) -> str | None:
+        """The room whose floor holds (x, y), if any (the first in scene order)."""
+        return next((r.name for r in self.scene.rooms if r.x[0] <= x <= r.x[1] and r.y[0] <= y <= r.y[1]), None)
+
+    def drawer_or_door_aabb(self, name: str) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+        """The bounding box (world) of the container `name`'s drawer or door where physics has it now."""
+        lo, hi = self.client.getAABB(self.sim.containers[name].body, 0)
+        return (lo[0], lo[1], lo[2]), (hi[0], hi[1], hi[2])
+
+    def shut_in(self, name: str) -> str | None:
+        """The closed container the object `name` is in (then it can be neither seen nor reached), if any."""
+        return truth.hidden(self.sim, self.placement(name))
+
+    def shut_position(self, location: str, position: str) -> str | None:
+        """The closed container a place position is inside, if any."""
+        return truth.shut_position(self.sim, self.sim.positions[(location, position)])
+
     # --- physical actions ----------------------------------------------------------------------
 
     def drive(self, path: list[str], progress: ProgressFn | None = None) -> float:
@@ -158,3 +211,7 @@ class World:
     def put_down(self, location: str, position: str) -> Reach:
         """Put the held object down on `position` of `location`."""
         return actions.put_down(self.sim, location, position)
+
+    def operate(self, name: str, *, opened: bool) -> Operation:
+        """Open (or close) the container `name`: the hand to its handle, its joint driven by the motor."""
+        return articulation.operate(self.sim, name, opened)

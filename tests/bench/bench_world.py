@@ -2,6 +2,7 @@
 
 Run: ``.venv/bin/python tests/bench/bench_world.py``. Targets (reported, not asserted):
 T1 sequence median <= 0.25 s, build + reset median <= 0.3 s, episode / bare-step wall ratio <= 1.5.
+Furniture (kitchen_plus): open and close of each container in-process, with their physics steps.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from typing import Any
 
 from robocog.server.config import SessionConfig
 from robocog.server.session import RobotSession
-from robocog.server.tools import ROBOT_TOOLS, move_to
+from robocog.server.tools import ROBOT_TOOLS, furniture, move_to
 from robocog.server.tools.base import Tool
 from robocog.server.world.world import World
 from robocog.shared.results import ActionResult
@@ -29,6 +30,7 @@ RESET_RUNS = 5
 T1_RUNS = 7
 T2_RUNS = 5
 BARE_RUNS = 5
+FURNITURE_RUNS = 5
 
 TARGET_T1_S = 0.25
 TARGET_BUILD_RESET_S = 0.3
@@ -175,9 +177,37 @@ def _measure() -> dict[str, float | int | bool]:
     return out
 
 
+def _measure_furniture() -> dict[str, float | int | bool]:
+    """open and close of each of kitchen_plus's containers through the tools (in-process, no MCP): the
+    median wall time and the physics steps of each action, the robot already at the container."""
+    out: dict[str, float | int | bool] = {}
+    world = World("kitchen_plus")
+    try:
+        robot = RobotSession(SessionConfig(), world=world)
+        for name in world.container_names:
+            times: dict[str, list[float]] = {"open": [], "close": []}
+            steps: dict[str, int] = {}
+            for _ in range(FURNITURE_RUNS):
+                world.reset()
+                robot.call(move_to.TOOL, location=world.scene.container(name).location)
+                for verb, tool in (("open", furniture.OPEN), ("close", furniture.CLOSE)):
+                    start = time.perf_counter()
+                    result = robot.call(tool, furniture=name)
+                    times[verb].append(time.perf_counter() - start)
+                    if result.outcome not in ("opened", "closed"):
+                        raise RuntimeError(f"{verb} {name}: {result.message}")
+                    steps[verb] = result.steps
+            for verb in ("open", "close"):
+                out[f"world.{verb}_{name}_s"] = round(statistics.median(times[verb]), 4)
+                out[f"world.{verb}_{name}_steps"] = steps[verb]
+    finally:
+        world.close()
+    return out
+
+
 def run() -> dict[str, float | int | bool]:
     """Measure the world; a flat dict of rounded numbers (and whether each target is met)."""
-    return _measure()
+    return {**_measure(), **_measure_furniture()}
 
 
 if __name__ == "__main__":

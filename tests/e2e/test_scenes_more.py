@@ -72,15 +72,15 @@ def write_scene(tmp_path: Path, data: dict[str, Any]) -> Path:
 # --- the scenes load, validate and lay out soundly ------------------------------------------------
 
 
-@pytest.mark.parametrize("name", ["household", *NEW_SCENES])
+@pytest.mark.parametrize("name", ["household", *NEW_SCENES, "kitchen_plus"])
 def test_shipped_scene_loads_and_its_layout_is_sound(name: str) -> None:
     scene = load_scene(scene_path(name))
     assert scene.name == name
     assert layout_problems(scene) == []
 
 
-def test_the_shipped_scenes_are_the_three() -> None:
-    assert scene_names() == ["flat", "household", "suite_house"]
+def test_the_shipped_scenes_are_the_four() -> None:
+    assert scene_names() == ["flat", "household", "kitchen_plus", "suite_house"]
 
 
 def test_household_is_the_papers_world_unchanged() -> None:
@@ -311,9 +311,10 @@ def test_unknown_scene_name_lists_the_known_ones() -> None:
     with pytest.raises(ConfigError) as info:
         scene_path("castle")
     assert str(info.value) == (
-        "scene 'castle': no such scene; known scenes: flat, household, suite_house (or give the path of a scene YAML)"
+        "scene 'castle': no such scene; known scenes: flat, household, kitchen_plus, suite_house "
+        "(or give the path of a scene YAML)"
     )
-    with pytest.raises(ConfigError, match="known scenes: flat, household, suite_house"):
+    with pytest.raises(ConfigError, match="known scenes: flat, household, kitchen_plus, suite_house"):
         World("castle")
 
 
@@ -321,4 +322,7 @@ def test_server_command_line_takes_a_scene_name(capsys: pytest.CaptureFixture[st
     from robocog.server.cli import main
 
     assert main(["--scene", "castle"]) == 2
-    assert "scene 'castle': no such scene; known scenes: flat, household, suite_house" in capsys.readouterr().err
+    assert (
+        "scene 'castle': no such scene; known scenes: flat, household, kitchen_plus, suite_house"
+        in capsys.readouterr().err
+    )

@@ -13,7 +13,7 @@ from mcp import Client
 from robocog.agent.contract.check import dump_contract
 from robocog.server.app import build_server
 from robocog.server.config import SessionConfig
-from robocog.shared.protocol import CONTROL_TOOLS
+from robocog.shared.protocol import CONTROL_TOOLS, FURNITURE_TOOLS
 from tests.helpers import CONTRACT_DIR, ROBOT_TOOLS, T1, T1_SEQUENCE, T2_SEQUENCE, action_args, check_snapshot
 
 pytestmark = pytest.mark.anyio
@@ -316,7 +316,7 @@ async def test_the_description_resource_gives_the_world_in_words(robot: Client) 
 
 async def test_the_paper_system_prompt_has_the_tools_and_no_honesty_lines(robot: Client) -> None:
     text = (await robot.get_prompt("robot_system_paper")).messages[0].content.text  # type: ignore[union-attr]
-    for tool in ROBOT_TOOLS:
+    for tool in ROBOT_TOOLS - FURNITURE_TOOLS:  # the paper's models had its eight tools
         assert tool in text, tool
     for extra in ("cannot be grasped", "claim success", "honest", "Kitchen", "Living Room", "hallway", "one object"):
         assert extra.lower() not in text.lower(), extra

@@ -17,6 +17,7 @@ import pytest
 from robocog.agent.harness.study import run_eval
 from robocog.agent.study_protocols import task_of
 from robocog.shared.evaluation import AttemptRow, EvalConfig, ModelSpec
+from robocog.shared.protocol import PAPER_TOOLS
 from tests.fake_llm import PLACEHOLDER_KEY, FakeLLM, Request, planner_script
 from tests.helpers import T1, T2
 
@@ -102,6 +103,8 @@ async def test_the_paper_protocol_continues_the_conversation_and_describes_the_w
             assert "<task>" in m["content"] and all(loc in m["content"] for loc in LOCATIONS), m["content"]
     system = requests[0].body["messages"][0]["content"]
     assert "claim success" not in system and "cannot be grasped" not in system
+    # The paper's models are offered the paper's eight tools, whatever the server publishes beyond them.
+    assert all([t["function"]["name"] for t in r.body["tools"]] == list(PAPER_TOOLS) for r in requests)
     # Top 5: by the last iteration six reports are stored, and T1's search returns five.
     assert len(tool_results(groups[6], "search_memory")[0]["results"]) == 5
     # The scratchpad carries over from T1 into T2 (T1 wrote its plan first).
@@ -118,4 +121,31 @@ async def test_the_robocog_protocol_starts_each_task_afresh(fake: FakeLLM, tmp_p
         first = group[0].body["messages"]
         assert [m["role"] for m in first] == ["system", "user"] and first[1]["content"] == task
     assert len(tool_results(groups[6], "search_memory")[0]["results"]) == 3
+    # Text only: no camera; and the household has nothing that opens: no open and close either.
+    assert all([t["function"]["name"] for t in r.body["tools"]] == list(PAPER_TOOLS) for r in requests)
     assert tool_results(groups[1], "add_to_scratchpad")[0]["entries"] == 1
+
+
+async def test_a_study_under_partial_observation_records_it_in_every_row(fake: FakeLLM, tmp_path: Path) -> None:
+    fake.reset()
+    config = EvalConfig(
+        name="observe-room",
+        models=[ModelSpec(model="openai/planner", api_base=fake.openai_base, api_key=PLACEHOLDER_KEY)],
+        tasks=["T1"],
+        trials=1,
+        memory_iterations=1,
+        observe="room",
+    )
+    rows = await run_eval(config, tmp_path / "room.jsonl")
+    assert [(r.observe, r.outcome) for r in rows] == [("room", rows[0].outcome)] and rows[0].outcome != "error"
+    looks = [
+        json.loads(m["content"])
+        for r in fake.model_requests
+        for m in r.body["messages"]
+        if m["role"] == "tool" and '"locations"' in str(m.get("content"))
+    ]
+    assert looks and all(look.get("observed") == "room" for look in looks)
+    assert '"observe"' in (tmp_path / "room.jsonl").read_text()
+    fake.reset()
+    plain = await run_eval(config.model_copy(update={"observe": None}), tmp_path / "house.jsonl")
+    assert plain[0].observe is None and '"observe"' not in (tmp_path / "house.jsonl").read_text()

@@ -205,11 +205,12 @@ def test_t1_tool_results_match_the_snapshot(session: RobotSession) -> None:
     check_snapshot("session_t1_results", {"results": results, "verdict": verdict})
 
 
-def test_the_robot_tools_are_the_papers_eight_and_the_camera() -> None:
-    from robocog.shared.protocol import PAPER_TOOLS, VISION_TOOLS
+def test_the_robot_tools_are_the_papers_eight_the_camera_and_open_close() -> None:
+    from robocog.shared.protocol import FURNITURE_TOOLS, PAPER_TOOLS, VISION_TOOLS
 
-    assert [t.name for t in ROBOT_TOOLS if t.name not in VISION_TOOLS] == list(PAPER_TOOLS)
-    assert {t.name for t in ROBOT_TOOLS} == set(PAPER_TOOLS) | VISION_TOOLS
+    ours = VISION_TOOLS | FURNITURE_TOOLS
+    assert [t.name for t in ROBOT_TOOLS if t.name not in ours] == list(PAPER_TOOLS)
+    assert {t.name for t in ROBOT_TOOLS} == set(PAPER_TOOLS) | ours
 
 
 def test_every_tool_module_is_registered() -> None:
