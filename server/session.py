@@ -24,6 +24,7 @@ from robocog.server.memory.scratchpad import Scratchpad
 from robocog.server.tools.base import Caller, Tool
 from robocog.server.world.tasks import task_catalogue
 from robocog.server.world.world import World
+from robocog.shared.perturbations import Perturbation, PerturbationEvent
 from robocog.shared.results import ObjectPlacement, WorldState
 from robocog.shared.scene_files import scene_path
 from robocog.shared.suite import Instance, find_instance
@@ -101,6 +102,10 @@ class RobotSession:
         self.tasks: dict[str, TaskSpec] = task_catalogue()
         self.caller = Caller()
         self.episode = Episode(number=1, baseline=self.world.placements())
+        #: The perturbations that happened during the last call (`robocog.shared.perturbations`).
+        self.perturbations: list[PerturbationEvent] = []
+        #: Announced perturbations whose sentence no result has carried yet.
+        self._untold: list[str] = []
 
     @property
     def memory(self) -> EpisodicMemory:
@@ -187,22 +192,38 @@ class RobotSession:
         of the episode's calls (unless the caller does not: a client watching the driver's robot),
         and the first after end_task begins a new episode, unless it is the same end_task again (a
         retry of a call whose answer was lost: it answers for the episode that ended)."""
+        seen = len(self.world.perturbation_events)
         if tool.counts_as_episode_call and (caller is None or caller.counts):
             retry = tool.ends_episode and self.episode.report == dict(arguments)
             if self.episode.ended and not retry:
                 self.start_episode()
             self.episode.tool_calls += 1
+            self.world.before_call(self.episode.tool_calls)
         self.caller = caller or Caller()
         try:
             result = tool.run(self, **arguments)
+            if tool.counts_as_episode_call and (caller is None or caller.counts):
+                self.world.after_call()
         except ValueError as exc:
             logger.log(NOTICE, "%s: bad input: %s", tool.name, exc)
             raise
         finally:
             self.caller = Caller()
+            self.perturbations = self.world.perturbation_events[seen:]
+            self._untold += [e.description for e in self.perturbations if e.announced]
         if getattr(result, "status", None) == "failure":
             logger.log(NOTICE, "%s failed: %s", tool.name, getattr(result, "message", ""))
-        return result
+        return self._tell(result)
+
+    def _tell(self, result: R) -> R:
+        """The result with the announced perturbations not yet told appended to its message ("Something
+        changed: ..."), if it has a message (else they wait for the next result that has one)."""
+        message = getattr(result, "message", None)
+        if not self._untold or not isinstance(message, str):
+            return result
+        told = " ".join(self._untold)
+        self._untold = []
+        return result.model_copy(update={"message": f"{message} Something changed: {told}"})
 
     def start_episode(
         self, task_id: str | None = None, *, keep_scratchpad: bool = False, episode_id: str | None = None
@@ -224,16 +245,29 @@ class RobotSession:
         self.task(task_id)
         return self.start_episode(task_id, keep_scratchpad=keep_scratchpad, episode_id=episode_id)
 
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> WorldState:
+    def reset(
+        self,
+        *,
+        seed: int | None = None,
+        options: dict[str, Any] | None = None,
+        perturbations: list[Perturbation] | None = None,
+    ) -> WorldState:
         """Back to the start state (of the session's own scene, if an instance switched to another)
-        and a new episode (episodic memory is kept: that is the point of it)."""
+        and a new episode (episodic memory is kept: that is the point of it), with `perturbations`
+        (default: the scene's own; a ValueError names one the scene cannot have)."""
         self.instance = None
         self.world = self._worlds[self._home_scene]
-        state = self.world.reset(seed=seed, options=options)
+        problems = self.world.scene.perturbation_problems(perturbations or [])
+        if problems:
+            raise ValueError("; ".join(problems))
+        self._untold = []
+        state = self.world.reset(seed=seed, options=options, perturbations=perturbations)
         self.start_episode()
         return state
 
-    def begin_instance(self, suite: str, instance_id: str) -> WorldState:
+    def begin_instance(
+        self, suite: str, instance_id: str, perturbations: list[Perturbation] | None = None
+    ) -> WorldState:
         """Set the world up for an instance of a suite (`robocog.shared.suite`): its scene (switching
         worlds when it differs), reset with its seed, every graspable object on its start position;
         its task and earlier tasks (ids ID-pre1, ...) join the catalogue; a new episode begins. A
@@ -245,7 +279,11 @@ class RobotSession:
                 self._worlds.pop(other).close()
             self._worlds[name] = World(scene_path(name), seed=instance.seed)
         self.world = self._worlds[name]
-        self.world.reset(seed=instance.seed)
+        problems = self.world.scene.perturbation_problems(perturbations or [])
+        if problems:
+            raise ValueError(f"instance {instance.id}: " + "; ".join(problems))
+        self._untold = []
+        self.world.reset(seed=instance.seed, perturbations=perturbations)
         sim = self.world.sim
         for obj, start in instance.start.items():
             body, spot = sim.objects.get(obj), sim.positions.get((start.location, start.position))

@@ -31,6 +31,7 @@ from robocog.server.consent import ConsentGate
 from robocog.server.ownership import Driver, RobotBusy
 from robocog.server.state import AppState
 from robocog.server.tools.base import Caller, ProgressFn, Tool
+from robocog.shared.perturbations import PERTURBATION_META_KEY
 from robocog.shared.protocol import DRIVER_META_KEY, MODEL_META_KEY
 from robocog.shared.results import WithImage
 
@@ -131,7 +132,9 @@ def register_tool(mcp: MCPServer[AppState], tool: Tool[Any], access: Access) -> 
         records: list[LogEntry] = []
         try:
             with collecting(records.append):
-                result = await state.run_on(robot, lambda session: session.invoke(tool, arguments, caller))
+                result, happened = await state.run_on(
+                    robot, lambda session: (session.invoke(tool, arguments, caller), session.perturbations)
+                )
         finally:
             await state.clients.send(ctx.request_context, records)
         # A blocked open or close failed, but the drawer or door moved as far as it could.
@@ -143,7 +146,11 @@ def register_tool(mcp: MCPServer[AppState], tool: Tool[Any], access: Access) -> 
                     await ctx.notify_resource_updated(uri)
             else:  # a fleet's robots are private: only the caller's own subscriptions hear of it
                 await state.clients.world_changed(only=connection_of(ctx.request_context))
-        return _tool_result(result)
+        answer = _tool_result(result)
+        if happened:  # what went wrong during the call, for the client's trace (announced or not)
+            events = [e.model_dump(mode="json") for e in happened]
+            answer.meta = {**(answer.meta or {}), PERTURBATION_META_KEY: events}
+        return answer
 
     keyword = inspect.Parameter.KEYWORD_ONLY
     parameters = [p.replace(kind=keyword) for p in tool.parameters]

@@ -13,6 +13,7 @@ from __future__ import annotations
 from collections.abc import Awaitable, Callable
 from typing import Any, Literal
 
+from robocog.shared.perturbations import Perturbation
 from robocog.shared.results import TaskVerdict
 
 #: Call one control with its arguments; answers its structured result (raises on a tool error).
@@ -51,9 +52,11 @@ class EvalControls:
         instance: str | None = None,
         suite: str | None = None,
         observe: Literal["location", "room", "house"] | None = None,
+        perturbations: list[Perturbation] | None = None,
     ) -> dict[str, Any]:
         """The start state again (a new episode), or a suite instance's start; answers the world state.
-        `observe`, when given, is what look_around reveals from now on (contract 3.1)."""
+        `observe`, when given, is what look_around reveals from now on (contract 3.1); `perturbations`,
+        what goes wrong in this episode (contract 3.2)."""
         arguments: dict[str, Any] = {"seed": seed, "randomize": randomize}
         optional = {
             "memory_labels": memory_labels,
@@ -62,6 +65,9 @@ class EvalControls:
             "instance": instance,
             "suite": suite,
             "observe": observe,
+            "perturbations": None
+            if perturbations is None
+            else [p.model_dump(mode="json", exclude_defaults=True) | {"kind": p.kind} for p in perturbations],
         }
         arguments.update({k: v for k, v in optional.items() if v is not None})
         if instance is not None:  # an instance sets its own start: no seed or randomization of ours

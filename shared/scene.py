@@ -21,6 +21,7 @@ from robocog.assets import ASSETS_DIR
 from robocog.shared.config_files import STRICT_CONFIG, Positive, Rgba, Vec2, Vec3
 from robocog.shared.limits import NAME_CHARS
 from robocog.shared.names import name_key
+from robocog.shared.perturbations import MAX_PERTURBATIONS, Perturbation
 
 
 class _Strict(BaseModel):
@@ -222,6 +223,9 @@ class Scene(_Strict):
     location_radius: Positive = Field(
         default=1.3, description="how far from a location an object may lie and still be seen as 'at' it"
     )
+    perturbations: list[Perturbation] = Field(
+        default=[], max_length=MAX_PERTURBATIONS, description="what goes wrong in every episode (none by default)"
+    )
 
     @model_validator(mode="after")
     def _consistent(self) -> Scene:
@@ -277,7 +281,30 @@ class Scene(_Strict):
                 other = named.get(referring_key(text))
                 if other is not None:
                     raise ValueError(f"objects[{i}].descriptions[{j}] ({obj.name}): {text!r} names the {other}")
+        problem = next(iter(self.perturbation_problems(self.perturbations)), None)
+        if problem is not None:
+            raise ValueError(problem)
         return self
+
+    def perturbation_problems(self, perturbations: list[Perturbation]) -> list[str]:
+        """What in `perturbations` names something this scene lacks (an object, a place position, a
+        container, an edge), one line each."""
+        objects = {o.name for o in self.objects if o.graspable}
+        spots = {(p.location, p.name) for p in self.place_positions}
+        boxes = {c.name for c in self.containers}
+        edges = {frozenset(e) for e in self.edges}
+        out: list[str] = []
+        for i, p in enumerate(perturbations):
+            where = f"perturbations[{i}] ({p.kind})"
+            if p.object is not None and p.object not in objects:
+                out.append(f"{where}: {p.object!r} is not a graspable object (known: {sorted(objects)})")
+            if p.to is not None and tuple(p.to) not in spots:
+                out.append(f"{where}: {p.to[0]} / {p.to[1]} is not a place position")
+            if p.container is not None and p.container not in boxes:
+                out.append(f"{where}: {p.container!r} is not a container (known: {sorted(boxes)})")
+            if p.edge is not None and frozenset(p.edge) not in edges:
+                out.append(f"{where}: {p.edge[0]} - {p.edge[1]} is not an edge of the map")
+        return out
 
     def robot_file(self) -> Path:
         """The robot description this scene names (relative paths are inside assets/)."""

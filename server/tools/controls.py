@@ -14,6 +14,7 @@ from pydantic import BaseModel, Field
 from robocog.server.tools.base import CONTROL, DESTRUCTIVE, Tool, at_most
 from robocog.server.world.tasks import evaluate
 from robocog.shared.limits import EPISODE_ID_CHARS, NAME_CHARS
+from robocog.shared.perturbations import MAX_PERTURBATIONS, Perturbation
 from robocog.shared.results import TaskVerdict, WorldState
 from robocog.shared.suite import DEFAULT_SUITE
 
@@ -109,20 +110,29 @@ def reset_world(
             "whole 'house' (the server's --observe until set)"
         ),
     ] = None,
+    perturbations: Annotated[
+        list[Perturbation] | None,
+        Field(
+            description="What goes wrong in this episode (a slipping grasp, an object moved, a container closed, "
+            "a corridor blocked), each due at a tool call and announced or silent; default: the scene's own "
+            "(none in the shipped scenes)",
+            max_length=MAX_PERTURBATIONS,
+        ),
+    ] = None,
 ) -> WorldState:
     """Put the world back to its start state and begin a new episode. Episodic memory is kept.
     memory_labels, search_k, memory_namespace and observe, when given, hold from now on (until set again).
     With an instance of a suite: the world of the instance's scene, set to the instance's start
     (seed and randomize do not apply), and the instance's task (and its earlier tasks, ID-pre1, ...)
-    can be begun and checked by id."""
+    can be begun and checked by id. perturbations hold for this episode only."""
     if instance is not None and (seed is not None or randomize):
         raise ValueError("give an instance, or a seed and randomize: an instance has its own seed and start")
     if memory_namespace is not None:
         robot.use_namespace(memory_namespace)
     if instance is not None:
-        state = robot.begin_instance(suite, instance)
+        state = robot.begin_instance(suite, instance, perturbations)
     else:
-        state = robot.reset(seed=seed, options={"randomize": randomize})
+        state = robot.reset(seed=seed, options={"randomize": randomize}, perturbations=perturbations)
     if memory_labels is not None:
         robot.memory_labels = memory_labels
     if search_k is not None:

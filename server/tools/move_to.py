@@ -15,7 +15,8 @@ if TYPE_CHECKING:
 
 def move_to(robot: RobotSession, location: LocationArg) -> MoveResult:
     """Drive the robot to a location along the shortest path on its map (A*). Fails with the
-    closest known names if the location does not exist, or if there is no path."""
+    closest known names if the location does not exist, or if there is no path; if the way is
+    blocked, it stops at the last location before the block and says where."""
     world = robot.world
     here = world.robot_location()
     goal = resolve(location, world.map.names)
@@ -34,7 +35,21 @@ def move_to(robot: RobotSession, location: LocationArg) -> MoveResult:
         )
     if len(path) == 1:
         return MoveResult(status="success", message=f"The robot is already at {goal}.", location=goal, path=path)
-    driven = world.drive(path, robot.caller.report)
+    trip = world.travel(path, robot.caller.report)
+    driven = trip.driven_m
+    if trip.blocked is not None:
+        a, b = trip.blocked
+        stopped = trip.path[-1]
+        via = f" via {' -> '.join(trip.path)} ({driven:.1f} m)" if len(trip.path) > 1 else ""
+        return MoveResult(
+            status="failure",
+            error="no_path",
+            message=f"The way from {a} to {b} is blocked, so the robot could not reach {goal}: it stopped at "
+            f"{stopped}{via}. The block may clear later: try again in a while, or go another way.",
+            location=stopped,
+            path=trip.path,
+            distance_m=round(driven, 3),
+        )
     return MoveResult(
         status="success",
         message=f"Moved to {goal} via {' -> '.join(path)} ({driven:.1f} m).",

@@ -21,7 +21,10 @@ from robocog.server.world.actions import ProgressFn, Reach
 from robocog.server.world.articulation import Operation
 from robocog.server.world.builder import connect
 from robocog.server.world.navigation import SemanticMap
+from robocog.server.world.perturb import Perturber, Trip
 from robocog.server.world.sim import Sim
+from robocog.shared.errors import WorldError
+from robocog.shared.perturbations import Perturbation, PerturbationEvent
 from robocog.shared.results import FurnitureState, ObjectPlacement, Observe, WorldState
 from robocog.shared.robot_spec import load_robot
 from robocog.shared.scene import Scene, SceneObject
@@ -29,7 +32,7 @@ from robocog.shared.scene_files import load_scene, scene_path
 
 DEFAULT_SCENE = ASSETS_DIR / "scenes" / "household.yaml"
 
-__all__ = ["DEFAULT_SCENE", "Operation", "ProgressFn", "Reach", "World"]
+__all__ = ["DEFAULT_SCENE", "Operation", "ProgressFn", "Reach", "Trip", "World"]
 
 
 class World:
@@ -52,23 +55,39 @@ class World:
         self.seed = seed
         self.np_random = np.random.default_rng(seed)
         self.sim: Sim
+        self.perturber: Perturber
         self.reset(seed=seed, options=options)
 
     # --- episodes ------------------------------------------------------------------------------
 
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> WorldState:
+    def reset(
+        self,
+        *,
+        seed: int | None = None,
+        options: dict[str, Any] | None = None,
+        perturbations: list[Perturbation] | None = None,
+    ) -> WorldState:
         """Back to the scene's start: the paper's static setup, or with `options={"randomize": True}`
         every graspable object on a distinct random place position with a random yaw, drawn from the
         world's one generator (reseeded by `seed` when given, else continued).
 
         The simulation is rebuilt from nothing (about 0.1 s), so a reset world is exactly a new
         world: no sleeping state or contact cache of the past episode carries over.
+
+        `perturbations` (default: the scene's own, none in the shipped scenes) are what goes wrong in
+        this episode (`robocog.server.world.perturb`), seeded by the world's seed; a WorldError names one
+        that refers to something the scene lacks.
         """
         episode.check_options(options)
+        chosen = list(self.scene.perturbations if perturbations is None else perturbations)
+        problems = self.scene.perturbation_problems(chosen)
+        if problems:
+            raise WorldError("; ".join(problems))
         if seed is not None:
             self.seed = seed
             self.np_random = np.random.default_rng(seed)
         self.sim = episode.reset(self.client, self.scene, self.robot_spec, self.np_random, options)
+        self.perturber = Perturber.arm(chosen, self.seed)
         return self.state()
 
     def close(self) -> None:
@@ -203,6 +222,24 @@ class World:
     def drive(self, path: list[str], progress: ProgressFn | None = None) -> float:
         """Drive along `path` (location names from where the robot is); the metres driven."""
         return actions.drive(self.sim, path, progress)
+
+    def travel(self, path: list[str], progress: ProgressFn | None = None) -> Trip:
+        """Drive along `path` as far as the corridors are clear (a blocked edge stops the robot before
+        it), with whatever perturbation is due on the way (a held object may slip)."""
+        return self.perturber.travel(self.sim, path, progress)
+
+    def before_call(self, call: int) -> None:
+        """The episode's robot tool call `call` begins: the perturbations due now happen."""
+        self.perturber.before_call(self.sim, call)
+
+    def after_call(self) -> None:
+        """The robot tool call ends: what was due but waited for the robot to leave happens now."""
+        self.perturber.after_call(self.sim)
+
+    @property
+    def perturbation_events(self) -> list[PerturbationEvent]:
+        """The perturbations that happened since the last reset, in order."""
+        return list(self.perturber.events)
 
     def pick(self, name: str) -> Reach:
         """Reach for the object `name` and hold it, if the hand gets close enough."""

@@ -1,0 +1,236 @@
+"""Perturbations in physics: a grasp that slips mid-drive, an object someone moves, a container someone
+closes, a corridor blocked for a while (the schema: `robocog.shared.perturbations`).
+
+A `Perturber` is armed at each reset with the episode's perturbations and a generator seeded from the
+world's seed, so the same seed makes the same things go wrong in the same way. The session tells it
+when a robot tool call begins and ends (`before_call`, `after_call`); driving asks it which edge is
+blocked and whether the held object slips on the way (`travel`). Each perturbation that happens is a
+`PerturbationEvent` in `events`; what it does is physics (a released constraint, a teleported object settling, a joint
+driven closed by its motor), and ground truth reads the result like any other.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from robocog.server.world import actions, articulation, containers, truth
+from robocog.server.world.actions import ProgressFn
+from robocog.server.world.sim import Sim
+from robocog.shared.perturbations import Perturbation, PerturbationEvent
+
+#: The stream of the world's seed that perturbations draw from (the world's own generator is untouched).
+STREAM = 25
+
+
+@dataclass(frozen=True)
+class Trip:
+    """How a drive ended: the locations passed (start included), the metres driven, and the blocked
+    edge it stopped before, if any (then the robot stands at `path[-1]`, short of the goal)."""
+
+    path: list[str]
+    driven_m: float
+    blocked: tuple[str, str] | None = None
+
+
+@dataclass
+class _Block:
+    edge: frozenset[str]
+    until_call: int  # the block lifts when this call begins
+    spec: Perturbation
+
+
+@dataclass
+class Perturber:
+    """One episode's perturbations: those still due, the corridors blocked now, and what happened."""
+
+    pending: list[Perturbation]
+    rng: np.random.Generator
+    events: list[PerturbationEvent] = field(default_factory=list)
+    blocks: list[_Block] = field(default_factory=list)
+    call: int = 0
+    loaded_drives: int = 0
+
+    @classmethod
+    def arm(cls, perturbations: list[Perturbation], seed: int | None) -> Perturber:
+        return cls(list(perturbations), np.random.default_rng([STREAM, seed if seed is not None else 0]))
+
+    # --- due at a call -----------------------------------------------------------------------------
+
+    def before_call(self, sim: Sim, call: int) -> None:
+        """The robot tool call `call` of the episode begins: blocks that ran out lift, and what is due
+        happens (when the robot is elsewhere, for what someone does behind its back)."""
+        self.call = call
+        for block in [b for b in self.blocks if call >= b.until_call]:
+            self.blocks.remove(block)
+            a, b = block.spec.edge or ("", "")
+            self._record(block.spec, f"The way between {a} and {b} is clear again.", edge=(a, b), ended=True)
+        self.after_call(sim)
+
+    def after_call(self, sim: Sim) -> None:
+        """What is due and waited for the robot to leave happens (also as a call ends: the robot may
+        have just driven away)."""
+        for p in [p for p in self.pending if p.kind != "slip" and p.at_call <= self.call]:
+            if self._happen(sim, p):
+                self.pending.remove(p)
+
+    def _happen(self, sim: Sim, p: Perturbation) -> bool:
+        here = truth.robot_location(sim)
+        if p.kind == "block_edge":
+            a, b = p.edge or ("", "")
+            self.blocks.append(_Block(frozenset((a, b)), self.call + p.duration, p))
+            self._record(p, f"The way between {a} and {b} is blocked.", edge=(a, b))
+            return True
+        if p.kind == "close_container":
+            name = p.container or ""
+            if sim.containers[name].geometry.spec.location == here:
+                return False  # someone closes it only while the robot is elsewhere
+            if not containers.is_closed(sim, name):
+                close(sim, name)
+                self._record(p, f"Someone closed the {name.replace('_', ' ')}.", container=name)
+            return True
+        name = p.object or ""
+        where = truth.placement(sim, name)
+        if where.state == "held" or where.location == here:
+            return False  # someone moves it only when the robot neither holds it nor stands by it
+        to = (p.to[0], p.to[1]) if p.to is not None else self._free_floor(sim, name)
+        if to is None:
+            return True
+        spot = sim.positions[to]
+        sim.put_on(sim.objects[name], spot, float(self.rng.uniform(-math.pi, math.pi)))
+        sim.settle([sim.objects[name].body])
+        xyz = truth.placement(sim, name).xyz
+        self._record(p, f"Someone moved the {name} to {to[0]} / {to[1]}.", obj=name, xyz=xyz)
+        return True
+
+    def _free_floor(self, sim: Sim, name: str) -> tuple[str, str] | None:
+        """A free floor position (not where the object is), drawn from the perturbations' generator."""
+        here = truth.placement(sim, name)
+        free = [
+            key
+            for key, pos in sim.positions.items()
+            if pos.spec.support == "floor"
+            and truth.occupant(sim, pos) is None
+            and key != (here.location, here.position)
+        ]
+        if not free:
+            return None
+        return free[int(self.rng.integers(len(free)))]
+
+    # --- driving -----------------------------------------------------------------------------------
+
+    def blocked(self, a: str, b: str) -> bool:
+        return any(block.edge == frozenset((a, b)) for block in self.blocks)
+
+    def travel(self, sim: Sim, path: list[str], progress: ProgressFn | None = None) -> Trip:
+        """Drive along `path`, stopping before a blocked edge; a slip due on this drive lets go of the
+        held object at a seeded point of the way, and physics lets it fall and settle."""
+        stop = next((i for i, (a, b) in enumerate(itertools.pairwise(path)) if self.blocked(a, b)), None)
+        route = path if stop is None else path[: stop + 1]
+        slip = self._slip_due(sim)
+        total = sum(sim.map.distance(a, b) for a, b in itertools.pairwise(route))
+        driven = 0.0
+        if slip is not None and total > 0:
+            at = total * float(self.rng.uniform(0.3, 0.7))
+            for i, (a, b) in enumerate(itertools.pairwise(route)):
+                seg = sim.map.distance(a, b)
+                if driven + seg < at:
+                    driven += actions.drive(sim, [a, b])
+                    continue
+                (ax, ay), (bx, by) = sim.map.points[a], sim.map.points[b]
+                f = (at - driven) / seg if seg else 0.0
+                drop = (ax + (bx - ax) * f, ay + (by - ay) * f)
+                driven += _drive_to(sim, (ax, ay), drop)
+                held = sim.grasp.name if sim.grasp else ""
+                actions.release(sim)
+                driven += _drive_to(sim, drop, (bx, by))
+                if progress is not None:
+                    progress(i + 1, len(route) - 1, f"reached {b}")
+                driven += actions.drive(sim, route[i + 1 :])
+                sim.settle([sim.objects[held].body])
+                where = truth.placement(sim, held)
+                near = f" near {where.location}" if where.location else ""
+                self._record(
+                    slip,
+                    f"The {held} slipped out of the hand between {a} and {b} and fell{near}.",
+                    obj=held,
+                    xyz=where.xyz,
+                )
+                break
+        elif len(route) > 1:
+            driven = actions.drive(sim, route, progress)
+        return Trip(route, driven, None if stop is None else (path[stop], path[stop + 1]))
+
+    def _slip_due(self, sim: Sim) -> Perturbation | None:
+        if sim.grasp is None:
+            return None
+        self.loaded_drives += 1
+        slip = next((p for p in self.pending if p.kind == "slip" and p.on_drive == self.loaded_drives), None)
+        if slip is not None:
+            self.pending.remove(slip)
+        return slip
+
+    def _record(
+        self,
+        p: Perturbation,
+        description: str,
+        *,
+        obj: str | None = None,
+        edge: tuple[str, str] | None = None,
+        container: str | None = None,
+        xyz: tuple[float, float, float] | None = None,
+        ended: bool = False,
+    ) -> None:
+        self.events.append(
+            PerturbationEvent(
+                kind=p.kind,
+                call=self.call,
+                description=description,
+                announced=p.announce,
+                object=obj,
+                container=container,
+                edge=edge,
+                xyz=None if xyz is None else (round(xyz[0], 3), round(xyz[1], 3), round(xyz[2], 3)),
+                ended=ended,
+            )
+        )
+
+
+def _drive_to(sim: Sim, start: tuple[float, float], end: tuple[float, float]) -> float:
+    """Drive the base in a straight line from `start` to `end` (points, not locations); the metres."""
+    robot = sim.robot
+    dist = math.dist(start, end)
+    n = max(1, math.ceil(dist / (sim.robot_spec.base_speed * sim.scene.physics.time_step)))
+    for k in range(1, n + 1):
+        robot.set_base(start[0] + (end[0] - start[0]) * k / n, start[1] + (end[1] - start[1]) * k / n, robot.yaw)
+        sim.step()
+    return dist
+
+
+def close(sim: Sim, name: str) -> None:
+    """Someone pushes the container `name` shut: its joint's motor drives it closed within its force
+    limit (no arm involved) until it is shut or stalls; then it holds where physics left it."""
+    box = sim.containers[name]
+    for obj in sim.objects.values():
+        sim.wake(obj.body)
+    containers.hold(sim.client, box, 0.0)
+    tolerance = articulation.AT_TARGET_M if box.geometry.joint == "prismatic" else articulation.AT_TARGET_RAD
+    start = sim.joint(name)
+    budget = math.ceil(abs(start) / containers.speed(box.geometry) / sim.scene.physics.time_step * 2)
+    best, since = abs(start), 0
+    for _ in range(budget + 2 * articulation.STALL_STEPS):
+        sim.step()
+        left = abs(sim.joint(name))
+        if left <= tolerance:
+            break
+        if best - left > articulation.STALL_PROGRESS:
+            best, since = left, 0
+        else:
+            since += 1
+            if since >= articulation.STALL_STEPS:
+                containers.hold(sim.client, box, sim.joint(name))
+                break
+    sim.settle()
