@@ -32,6 +32,7 @@ from typing import Any
 import anyio
 from mcp_types import CallToolResult, ImageContent, TextContent
 
+from robocog.shared.perturbations import PERTURBATION_META_KEY
 from robocog.shared.protocol import CONTROL_TOOLS
 
 logger = logging.getLogger("robocog.server.viewer")
@@ -229,6 +230,9 @@ class EventBus:
             image = next((c for c in result.content if isinstance(c, ImageContent)), None)
             if image is not None:
                 data["image"] = True
+            happened = (result.meta or {}).get(PERTURBATION_META_KEY)
+            if happened:  # what went wrong during the call: the page marks it in the list of calls
+                data["perturbations"] = _short(happened)
             if not result.is_error:
                 self._verdict(tool, arguments, result)
             if tool in VERDICT_TOOLS | EPISODE_TOOLS:

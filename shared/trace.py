@@ -14,8 +14,11 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, Field, TypeAdapter
 
+from robocog.shared.perturbations import PerturbationEvent
+
 #: 3: a tool result's pictures (`ToolResult.images`, files next to the trace).
-TRACE_VERSION = 3
+#: 4: perturbations (`Perturbed`, after the result of the call during which each happened).
+TRACE_VERSION = 4
 
 
 class _Event(BaseModel):
@@ -72,6 +75,17 @@ class ToolResult(_Event):
     images_sent: bool = Field(default=False, description="the pictures went to the model (a vision run)")
 
 
+class Perturbed(_Event):
+    """Something went wrong in the world during a tool call (`robocog.shared.perturbations`): a slip,
+    an object moved, a container closed, a corridor blocked (or clear again); written after that
+    call's result, whether the result said so (`announced`) or not."""
+
+    type: Literal["perturbation"] = "perturbation"
+    invocation: int
+    id: str = Field(description="the tool call during which it happened")
+    event: PerturbationEvent
+
+
 class Reinvoked(_Event):
     type: Literal["reinvoked"] = "reinvoked"
     invocation: int
@@ -105,7 +119,8 @@ class RunFinished(_Event):
 
 
 TraceEvent = Annotated[
-    RunStarted | ModelTurn | ToolCall | ToolResult | Reinvoked | Verdict | RunFinished, Field(discriminator="type")
+    RunStarted | ModelTurn | ToolCall | ToolResult | Perturbed | Reinvoked | Verdict | RunFinished,
+    Field(discriminator="type"),
 ]
 _adapter: TypeAdapter[TraceEvent] = TypeAdapter(TraceEvent)
 

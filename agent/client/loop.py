@@ -25,9 +25,19 @@ from robocog.agent.client.settings import AgentSettings
 from robocog.agent.client.trace_sinks import Trace
 from robocog.agent.study_protocols import DESCRIPTION_URI, PROTOCOLS, EvalProtocol
 from robocog.shared.errors import ModelServiceError, ServerConnectionError
+from robocog.shared.perturbations import PERTURBATION_META_KEY, PerturbationEvent
 from robocog.shared.protocol import FLEET_FULL, FURNITURE_TOOLS, MODEL_META_KEY
 from robocog.shared.provenance import function_definition, offered
-from robocog.shared.trace import ModelTurn, Reinvoked, RunFinished, RunStarted, ToolCall, ToolResult, Verdict
+from robocog.shared.trace import (
+    ModelTurn,
+    Perturbed,
+    Reinvoked,
+    RunFinished,
+    RunStarted,
+    ToolCall,
+    ToolResult,
+    Verdict,
+)
 
 Outcome = Literal["ended", "stopped", "error"]
 
@@ -271,6 +281,7 @@ async def _execute(
     pictures: list[Picture] = []
     references: list[str] = []
     rejected = problem is not None or arguments is None
+    perturbations: list[PerturbationEvent] = []
     if rejected:  # rejected here: the server never sees the call
         content = problem or ""
     else:
@@ -287,6 +298,9 @@ async def _execute(
         if is_error and FLEET_FULL in content:  # the server has no robot for this client: not the model's doing
             raise ServerConnectionError(f"the robot server refused {name}: {content}")
         structured = result.structured_content if isinstance(result.structured_content, dict) else None
+        perturbations = [
+            PerturbationEvent.model_validate(e) for e in (result.meta or {}).get(PERTURBATION_META_KEY, [])
+        ]
         for mime_type, data in _pictures(result):
             references.append(trace.save_image(base64.b64decode(data), tool=name, mime_type=mime_type))
             if settings.vision:
@@ -307,6 +321,8 @@ async def _execute(
             images_sent=bool(pictures),
         )
     )
+    for happened in perturbations:
+        trace.emit(Perturbed(t=trace.now(), invocation=invocation, id=call["id"], event=happened))
     if name == "end_task" and arguments is not None and not is_error:
         return (arguments.get("status") == "success", str(arguments.get("summary", ""))), content, pictures
     return None, content, pictures

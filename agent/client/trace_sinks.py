@@ -13,6 +13,7 @@ from rich.markup import escape
 
 from robocog.shared.trace import (
     ModelTurn,
+    Perturbed,
     Reinvoked,
     RunFinished,
     RunStarted,
@@ -102,6 +103,9 @@ class Trace:
             if event.images:
                 text += f" [picture{'s' if len(event.images) > 1 else ''}: {', '.join(event.images)}]"
             self._line("TOOL-RESPONSE", "bold red" if event.is_error else "bold green", text)
+        elif isinstance(event, Perturbed):
+            told = "announced" if event.event.announced else "silent"
+            self._line("WORLD", "bold yellow", f"{event.event.description} ({told}, call {event.event.call})")
         elif isinstance(event, Reinvoked):
             self._line("SYSTEM", "bold dark_orange", f"Re-invoking the agent ({event.invocation}): {event.reason}")
         elif isinstance(event, Verdict):
