@@ -31,6 +31,7 @@ from typing import Any
 
 import anyio
 from mcp_types import CallToolResult, ImageContent, TextContent
+from pydantic import BaseModel
 
 from robocog.shared.perturbations import PERTURBATION_META_KEY
 from robocog.shared.protocol import CONTROL_TOOLS
@@ -78,12 +79,15 @@ class Event:
 
 
 def _short(value: Any) -> Any:
-    """`value` with long strings cut to `MAX_TEXT` characters (for arguments)."""
+    """`value` with long strings cut to `MAX_TEXT` characters (for arguments), as JSON (an argument the
+    SDK validated into a model, e.g. reset_world's perturbations, as its JSON)."""
+    if isinstance(value, BaseModel):
+        value = value.model_dump(mode="json", exclude_defaults=True)
     if isinstance(value, str):
         return value if len(value) <= MAX_TEXT else value[: MAX_TEXT - 1] + "…"
     if isinstance(value, dict):
         return {str(k): _short(v) for k, v in value.items()}
-    if isinstance(value, list):
+    if isinstance(value, list | tuple):
         return [_short(v) for v in value[:50]]
     return value
 

@@ -81,6 +81,7 @@
       if (view.trail.length > MAX_TRAIL) view.trail.splice(0, view.trail.length - MAX_TRAIL);
       view.route = ev.structured.path.filter((n) => at[n]).map((n) => at[n]);
     }
+    if (Array.isArray(ev.perturbations)) for (const p of ev.perturbations) addPerturbation(p);
     if (ev.verdicts) verdict(ev.verdicts);
     if (ev.image) view.look = { seq: ev.seq, tool: ev.tool, what: ev.structured ? ev.structured.direction : "" };
     else if (MOVES.has(ev.tool) && !ev.is_error) view.lastMove = ev.seq;
@@ -89,6 +90,18 @@
     $("call-count").textContent = view.calls;
     view.resultTimes.push(Date.now());
     if (view.resultTimes.length > MAX_TIMES) view.resultTimes.splice(0, view.resultTimes.length - MAX_TIMES);
+  }
+
+  // Something went wrong in the world during a call (a slip, an object moved, a door closed, a way
+  // blocked): a marked row above the call's, saying whether the agent was told.
+  function addPerturbation(p) {
+    const li = el("li", "perturbation");
+    li.dataset.kind = p.kind;
+    const head = el("div", "call-head");
+    head.append(el("span", "tool", "\u26a0 world"), el("span", "args", p.kind),
+      el("span", `tag ${p.announced ? "announced" : "silent"}`, p.announced ? "announced" : "silent"));
+    li.append(head, el("div", "summary", `${text(p.description)} (call ${p.call})`));
+    $("stream").prepend(li);
   }
 
   function verdict(v) {

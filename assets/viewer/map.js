@@ -90,6 +90,20 @@ window.RobocogMap = (function () {
       canvas.dataset.labels = JSON.stringify(boxes);
     };
     if (!world) { labels(); return; }
+    // Furniture that opens: its carcass outlined by its state (green open, red closed), the state above
+    // it; what a closed one holds is drawn all the same (the map is ground truth), labelled "(inside)".
+    canvas.dataset.furniture = JSON.stringify((world.furniture || []).map((f) => [f.name, f.state, f.contents]));
+    for (const f of world.furniture || []) {
+      const body = scene.furniture.find((g) => g.name === f.name);
+      if (!body) continue;
+      const p = body.parts[0], open = f.state === "open";
+      ctx.strokeStyle = open ? "#2b8a3e" : "#c92a2a"; ctx.lineWidth = 3 * d; ctx.setLineDash(open ? [5 * d, 3 * d] : []);
+      ctx.strokeRect(T.px(p.center[0] - p.size[0] / 2), T.py(p.center[1] + p.size[1] / 2), p.size[0] * T.s, p.size[1] * T.s);
+      ctx.setLineDash([]);
+      ctx.font = font(10, "bold"); ctx.fillStyle = open ? "#2b8a3e" : "#c92a2a"; ctx.textAlign = "center";
+      ctx.fillText(f.state, T.px(p.center[0]), T.py(p.center[1] + p.size[1] / 2) - 3 * d);
+      ctx.textAlign = "start";
+    }
     const robot = world.robot;
     const stacked = [];  // label anchors: objects within 0.4 m of one (a shelf's layers) share it, a line each
     const objects = world.objects.slice().sort((a, b) => b.xyz[2] - a.xyz[2]);
