@@ -19,6 +19,7 @@ from robocog.server.world.world import World
 from robocog.shared.errors import WorldError
 from robocog.shared.perturbations import Perturbation
 from robocog.shared.results import LookAroundResult, MoveResult
+from robocog.shared.scene import Scene
 from tests.unit.world_helpers import TOOLS, perform, session_for
 
 SLIP = Perturbation(kind="slip", announce=True)
@@ -170,3 +171,29 @@ def test_a_container_closed_behind_the_robots_back_hides_its_contents(kitchen: W
     assert not any("sponge" in v.objects for v in look.locations)
     [event] = kitchen.perturbation_events
     assert (event.kind, event.container, event.call) == ("close_container", "kitchen_drawer", 4)
+
+
+# --- declared in a scene ---------------------------------------------------------------------------
+
+
+def test_a_scene_declares_perturbations_for_every_episode_and_reset_may_replace_them(world: World) -> None:
+    data = world.scene.model_dump()
+    data["perturbations"] = [{"kind": "block_edge", "edge": ["Front Door", "Hallway Area Door"], "duration": 1}]
+    with World(Scene.model_validate(data)) as blocked:
+        robot = session_for(blocked)
+        assert perform(robot, ("move_to", "Kitchen Table")).status == "failure"  # the scene's own
+        blocked.reset()
+        assert perform(session_for(blocked), ("move_to", "Hallway Area Door")).status == "failure"  # every episode
+        blocked.reset(perturbations=[])
+        assert perform(session_for(blocked), ("move_to", "Hallway Area Door")).status == "success"
+    data["perturbations"] = [{"kind": "close_container", "container": "fridge"}]
+    with pytest.raises(ValueError, match="'fridge' is not a container"):
+        Scene.model_validate(data)
+
+
+def test_a_suite_instance_takes_perturbations_too(world: World) -> None:
+    robot = session_for(world)
+    robot.begin_instance("robocog-v1", "dev-put_away-000", [BLOCK])
+    assert robot.world.perturber.pending == [BLOCK]
+    with pytest.raises(ValueError, match="not an edge"):
+        robot.begin_instance("robocog-v1", "dev-put_away-000", [Perturbation(kind="block_edge", edge=("a", "b"))])
