@@ -71,7 +71,7 @@ bench: $(STAMP) chromium ## Print the performance figures as JSON and record the
 SOAK_EPISODES ?= 1000
 SOAK_MINUTES ?= 30
 soak: $(STAMP) ## T1 episodes with memory on both protocol generations; RSS per 100 episodes (SOAK_MINUTES bounds it)
-	$(BIN)/python tests/bench/soak.py --episodes $(SOAK_EPISODES) --minutes $(SOAK_MINUTES) $(SOAK_ARGS)
+	$(BIN)/python tests/bench/soak.py --record --episodes $(SOAK_EPISODES) --minutes $(SOAK_MINUTES) $(SOAK_ARGS)
 
 fuzz: $(STAMP) ## Attack the server: a long Hypothesis run, then 25,000 hostile calls and 32 HTTP clients (JSON)
 	ROBOCOG_FUZZ=long $(BIN)/python -m pytest -q tests/integration/test_fuzz.py

@@ -115,6 +115,7 @@ def main() -> int:
     parser.add_argument("--episodes", type=int, default=int(os.environ.get("SOAK_EPISODES", "1000")))
     parser.add_argument("--minutes", type=float, default=float(os.environ.get("SOAK_MINUTES", "30")))
     parser.add_argument("--generations", default="session,sessionless")
+    parser.add_argument("--record", action="store_true", help="record the figures in docs/figures.json")
     parser.add_argument(
         "--light",
         action="store_true",
@@ -137,6 +138,11 @@ def main() -> int:
                 proc.terminate()
                 proc.wait(timeout=30)
     print(json.dumps(figures))
+    if args.record:
+        from tests.bench.run import RECORD, record
+
+        kind = "light" if args.light else "t1"
+        record({f"soak.{kind}.{g}.{k}": v for g, f in figures.items() for k, v in f.items()}, RECORD)
     return 0
 
 

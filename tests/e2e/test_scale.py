@@ -30,9 +30,19 @@ pytestmark = pytest.mark.anyio
 TIMING = {"llm_latency_s", "wall_s", "trace"}
 
 
+#: The scripted models' latency parameters: a row's provenance records them with the others.
+LATENCY_PARAMS = {"latency_s", "jitter_s"}
+
+
 def outcome(rows: list[AttemptRow]) -> list[dict[str, Any]]:
-    """The rows without their timing fields, in a stable order."""
+    """The rows without their timing fields (nor the latency among their provenance's parameters), in
+    a stable order."""
     kept = [r.model_dump(exclude=TIMING) for r in rows]
+    for row in kept:
+        if row.get("provenance"):
+            row["provenance"]["params"] = {
+                k: v for k, v in row["provenance"]["params"].items() if k not in LATENCY_PARAMS
+            }
     return sorted(kept, key=lambda r: (r["model"], r["trial"], r["memory_iteration"], r["task"]))
 
 

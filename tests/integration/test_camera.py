@@ -17,7 +17,6 @@ from mcp import Client
 from mcp_types import CallToolResult, ImageContent, TextContent
 from PIL import Image
 
-from robocog.agent.client import loop
 from robocog.agent.client.loop import run_episode
 from robocog.agent.client.model import IMAGE_OMITTED
 from robocog.agent.client.settings import AgentSettings
@@ -227,7 +226,9 @@ async def test_a_text_only_run_gets_a_one_line_note_instead_of_a_picture(
 ) -> None:
     """A picture from a tool the client does not know as a camera (another server's) still never reaches
     a text-only model."""
-    monkeypatch.setattr(loop, "VISION_TOOLS", frozenset())
+    from robocog.shared import provenance
+
+    monkeypatch.setattr(provenance, "VISION_TOOLS", frozenset())  # which tools a model is offered
     trace = Trace()
     requests = await look_episode(robot, fake, "openai/fake-text", vision=False, trace=trace)
     assert all(r.images() == [] for r in requests)
