@@ -158,6 +158,14 @@
         }
         break;
       }
+      case "perturbation": {
+        const p = ev.event || {};
+        li.classList.add("perturbation");
+        head.append(el("b", null, `\u26a0 ${p.kind}`), document.createTextNode(" "),
+          tag(p.announced ? "announced" : "silent"), el("span", "small muted", ` during call ${p.call}`));
+        li.append(el("div", "small", text(p.description)));
+        break;
+      }
       case "reinvoked":
         head.append(el("span", null, `invocation ${ev.invocation}: ${ev.reason}`));
         break;

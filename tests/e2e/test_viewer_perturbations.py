@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.browser import browser_page, chromium, screenshot_path
+from tests.browser import browser_page, chromium, screenshot_path, serving
 from tests.helpers import live_server
 
 PERTURBATIONS = [
@@ -59,3 +59,31 @@ async def test_the_live_viewer_marks_perturbations_and_draws_containers(tmp_path
         rows = await page.eval_on_selector_all("#stream li", "ls => ls.map(l => l.dataset.kind || l.dataset.tool)")
         assert rows[:4] == ["block_edge", "move_to", "close_container", "move_to"]
         await page.screenshot(path=str(screenshot_path("live-viewer-perturbations.png")))
+
+
+@pytest.mark.anyio
+async def test_the_results_viewer_shows_a_traces_perturbation_as_a_marked_step(tmp_path: Path) -> None:
+    from robocog.agent.view.serve import ResultsViewer
+    from robocog.shared.perturbations import PerturbationEvent
+    from robocog.shared.trace import Perturbed, dump_event
+    from tests.e2e.test_viewer import study_with_a_trace
+
+    chromium()
+    results = study_with_a_trace(tmp_path)
+    trace = tmp_path / "results.traces" / "alpha" / "trial-0" / "iter-0-T1.jsonl"
+    lines = trace.read_text().splitlines(keepends=True)
+    slipped = PerturbationEvent(kind="slip", call=1, description="The cube slipped out of the hand.", announced=False)
+    lines.insert(4, dump_event(Perturbed(t=0.75, invocation=1, id="c1", event=slipped)) + "\n")
+    trace.write_text("".join(lines))
+    viewer = ResultsViewer(results)
+    viewer.prepare()
+    async with serving(viewer.app()) as url, browser_page() as page:
+        await page.goto(url)
+        await page.wait_for_function("document.body.dataset.ready === 'true'")
+        await page.locator("#attempts tbody tr").first.click()
+        step = page.locator("#steps li[data-type='perturbation']")
+        await step.wait_for()
+        assert "The cube slipped out of the hand." in (await step.text_content() or "")
+        assert await step.locator(".tag").text_content() == "silent"
+        kinds = [await s.get_attribute("data-type") for s in await page.locator("#steps li").all()]
+        assert kinds[3:5] == ["tool_result", "perturbation"]
