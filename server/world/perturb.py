@@ -130,7 +130,7 @@ class Perturber:
         held object at a seeded point of the way, and physics lets it fall and settle."""
         stop = next((i for i, (a, b) in enumerate(itertools.pairwise(path)) if self.blocked(a, b)), None)
         route = path if stop is None else path[: stop + 1]
-        slip = self._slip_due(sim)
+        slip = self._slip_due(sim) if len(route) > 1 else None  # a drive blocked at once is no drive
         total = sum(sim.map.distance(a, b) for a, b in itertools.pairwise(route))
         driven = 0.0
         if slip is not None and total > 0:
@@ -139,6 +139,8 @@ class Perturber:
                 seg = sim.map.distance(a, b)
                 if driven + seg < at:
                     driven += actions.drive(sim, [a, b])
+                    if progress is not None:
+                        progress(i + 1, len(route) - 1, f"reached {b}")
                     continue
                 (ax, ay), (bx, by) = sim.map.points[a], sim.map.points[b]
                 f = (at - driven) / seg if seg else 0.0

@@ -69,6 +69,18 @@ def test_a_slip_happens_only_with_an_object_in_hand(world: World) -> None:
     assert world.perturbation_events == []
 
 
+def test_a_drive_blocked_at_once_keeps_the_slip_for_the_next_drive(world: World) -> None:
+    world.reset(perturbations=[SLIP, Perturbation(kind="block_edge", edge=("Front Door", "Hallway Area Door"))])
+    robot = session_for(world)
+    assert perform(robot, ("grab", "cube")).status == "success"  # call 1: the way out is blocked from now
+    assert perform(robot, ("move_to", "Kitchen Area Left")).status == "failure"  # call 2: no drive at all
+    assert world.holding == "cube"
+    perform(robot, ("look_around",))  # call 3
+    moved = perform(robot, ("move_to", "Kitchen Area Left"))  # call 4: the block lifted; the first loaded drive
+    assert moved.status == "success" and world.holding is None
+    assert [e.kind for e in world.perturbation_events] == ["block_edge", "block_edge", "slip"]
+
+
 def test_the_same_seed_makes_the_same_slip(world: World) -> None:
     carry_cube_to_the_kitchen(world, seed=11)
     first = world.placement("cube").xyz
