@@ -8,6 +8,7 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from robocog.shared.config_files import load_yaml_model
+from robocog.shared.perturbations import MAX_PERTURBATIONS, Perturbation
 from robocog.shared.provenance import Provenance
 
 
@@ -55,6 +56,12 @@ class EvalConfig(BaseModel):
         "'house' (default: the server's --observe, itself 'house'); run a study twice to compare partial with "
         "full observation on the same instances",
     )
+    perturbations: list[Perturbation] = Field(
+        default=[],
+        max_length=MAX_PERTURBATIONS,
+        description="what goes wrong in every episode (robocog.shared.perturbations; sent with every reset; "
+        "protocol 'robocog' only); default none",
+    )
     keep_memory: bool = Field(
         default=False,
         description="keep each unit's memory namespace on the server when the unit ends (default: it is dropped, "
@@ -88,6 +95,14 @@ class EvalConfig(BaseModel):
         names = [m.name for m in self.models]
         if len(set(names)) != len(names):
             raise ValueError(f"models: two models share a name ({names}); give them distinct labels")
+        return self
+
+    @model_validator(mode="after")
+    def _paper_world(self) -> EvalConfig:
+        if self.protocol == "paper" and self.perturbations:
+            raise ValueError(
+                "perturbations: the paper's protocol runs the paper's world as it is; use protocol: robocog"
+            )
         return self
 
     @model_validator(mode="after")

@@ -123,6 +123,8 @@ class Runner:
         }
         if cfg.observe is not None:  # only when asked: a server before contract 3.1 does not know it
             reset["observe"] = cfg.observe
+        if cfg.perturbations:  # only when asked: a server before contract 3.2 does not know them
+            reset["perturbations"] = cfg.perturbations
         controls = self.controls(robot)
         for iteration in range(start_iteration, cfg.memory_iterations):
             await controls.reset_world(seed=seed, randomize=cfg.randomize, **reset)

@@ -100,3 +100,30 @@ async def test_the_clients_trace_records_each_perturbation_after_its_result(
     perturbed = next(e for e in events if isinstance(e, Perturbed))
     assert perturbed.id == result.id and perturbed.event.kind == "block_edge" and perturbed.event.announced
     assert "Something changed: The way between Hallway Area Door and Kitchen Door is blocked." in result.content
+
+
+async def test_a_study_sends_its_perturbations_with_every_reset_and_traces_them(tmp_path: Path) -> None:
+    """The planner's T1 under a slip (a server process through `robocog eval`'s runner): the trace has
+    the slip after its call's result; the paper's protocol refuses perturbations."""
+    from robocog.agent.harness.study import run_eval
+    from robocog.shared.evaluation import EvalConfig, ModelSpec
+
+    slip = Perturbation(kind="slip", announce=True)
+    with pytest.raises(ValueError, match="the paper's protocol runs the paper's world as it is"):
+        EvalConfig(name="p", protocol="paper", models=[ModelSpec(model="scripted/planner")], perturbations=[slip])
+    config = EvalConfig(
+        name="perturbed",
+        models=[ModelSpec(model="scripted/planner")],
+        tasks=["T1"],
+        trials=1,
+        memory_iterations=1,
+        perturbations=[slip],
+    )
+    rows = await run_eval(config, tmp_path / "r.jsonl")
+    assert len(rows) == 1
+    [trace] = list((tmp_path / "r.traces").rglob("*.jsonl"))
+    events = read_trace(trace)
+    [slipped] = [e for e in events if isinstance(e, Perturbed)]
+    assert slipped.event.kind == "slip" and slipped.event.announced
+    result = next(e for e in events if isinstance(e, ToolResult) and e.id == slipped.id)
+    assert result.name == "move_to" and "Something changed: The " in result.content
