@@ -13,7 +13,7 @@
   const $ = (id) => document.getElementById(id);
   const view = {
     scene: null, world: null, seq: 0, stateSeq: 0, calls: 0,
-    trail: [], route: null, rows: new Map(), source: null, look: null, lastMove: 0,
+    trail: [], route: null, blocked: [], rows: new Map(), source: null, look: null, lastMove: 0,
     // For tests and the bench: when each result reached the page (Date.now(), in order).
     resultTimes: [], stateTimes: [],
   };
@@ -86,6 +86,7 @@
     if (ev.image) view.look = { seq: ev.seq, tool: ev.tool, what: ev.structured ? ev.structured.direction : "" };
     else if (MOVES.has(ev.tool) && !ev.is_error) view.lastMove = ev.seq;
     if (ev.tool === "reset_world" || ev.tool === "begin_task") { view.trail = []; view.route = null; }
+    if (ev.tool === "reset_world") { view.blocked = []; draw(); }
     if (!CONTROLS.has(ev.tool)) view.calls += 1; // the agent's calls: a harness's begin_task or check_task is not one
     $("call-count").textContent = view.calls;
     view.resultTimes.push(Date.now());
@@ -102,6 +103,12 @@
       el("span", `tag ${p.announced ? "announced" : "silent"}`, p.announced ? "announced" : "silent"));
     li.append(head, el("div", "summary", `${text(p.description)} (call ${p.call})`));
     $("stream").prepend(li);
+    if (p.kind === "block_edge" && Array.isArray(p.edge)) {  // the map crosses out a blocked corridor
+      const key = p.edge.slice().sort().join("|");
+      view.blocked = view.blocked.filter((e) => e.slice().sort().join("|") !== key);
+      if (!p.ended) view.blocked.push(p.edge);
+      draw();
+    }
   }
 
   function verdict(v) {
@@ -139,7 +146,7 @@
   }
 
   function draw() {
-    if (view.scene) RobocogMap.draw($("map"), view.scene, view.world, { trail: view.trail, route: view.route });
+    if (view.scene) RobocogMap.draw($("map"), view.scene, view.world, { trail: view.trail, route: view.route, blocked: view.blocked });
   }
 
   // The camera: one request at a time; a newer world while one loads asks again once it is done.

@@ -68,6 +68,15 @@ window.RobocogMap = (function () {
     extra = extra || {};
     line(extra.trail, "rgba(232,89,12,0.35)", 3, [6, 4]);
     line(extra.route, "rgba(232,89,12,0.95)", 3.5);
+    // A corridor blocked by a perturbation: a thick red line crossed out at its middle.
+    canvas.dataset.blocked = JSON.stringify(extra.blocked || []);
+    for (const [a, b] of extra.blocked || []) {
+      if (!loc[a] || !loc[b]) continue;
+      line([[loc[a].x, loc[a].y], [loc[b].x, loc[b].y]], "rgba(201,42,42,0.9)", 4, [8, 4]);
+      const mx = T.px((loc[a].x + loc[b].x) / 2), my = T.py((loc[a].y + loc[b].y) / 2), k = 7 * d;
+      ctx.strokeStyle = "#c92a2a"; ctx.lineWidth = 3 * d;
+      ctx.beginPath(); ctx.moveTo(mx - k, my - k); ctx.lineTo(mx + k, my + k); ctx.moveTo(mx + k, my - k); ctx.lineTo(mx - k, my + k); ctx.stroke();
+    }
     for (const l of scene.locations) {
       ctx.fillStyle = "#2b8a3e"; ctx.beginPath(); ctx.arc(T.px(l.x), T.py(l.y), 4.5 * d, 0, 2 * Math.PI); ctx.fill();
     }

@@ -1,5 +1,6 @@
 """The live viewer shows what goes wrong as it happens: a marked row for each perturbation (announced
-or silent) in the list of calls, and the map's furniture that opens with its state and contents.
+or silent) in the list of calls, a blocked corridor crossed out on the map while it lasts, and the
+map's furniture that opens with its state and contents.
 
 Headless Chromium through Playwright, as tests/e2e/test_viewer.py; the screenshot lands in
 build/screenshots/live-viewer-perturbations.png.
@@ -58,7 +59,13 @@ async def test_the_live_viewer_marks_perturbations_and_draws_containers(tmp_path
         # The newest rows first: the block above the call it stopped, the closing above its call.
         rows = await page.eval_on_selector_all("#stream li", "ls => ls.map(l => l.dataset.kind || l.dataset.tool)")
         assert rows[:4] == ["block_edge", "move_to", "close_container", "move_to"]
+        blocked_edge = '[["Kitchen Area Left","Kitchen Table"]]'
+        assert await page.eval_on_selector("#map", "m => m.dataset.blocked") == blocked_edge
         await page.screenshot(path=str(screenshot_path("live-viewer-perturbations.png")))
+        for _ in range(2):  # calls 5 and 6: the block (calls 4 and 5) lifts as call 6 begins
+            await client.call_tool("look_around", {})
+        await page.locator("#stream li.perturbation[data-kind='block_edge']").nth(1).wait_for()
+        await page.wait_for_function("document.getElementById('map').dataset.blocked === '[]'")
 
 
 @pytest.mark.anyio
