@@ -12,9 +12,11 @@ A `Perturbation` is one event the world makes happen during an episode, in physi
 - `block_edge`: the corridor between the two locations of `edge` is blocked for `duration` tool
   calls; `move_to` through it stops at the last location before the block and says why.
 
-All but `slip` are due at the episode's `at_call`-th robot tool call (before it runs), and wait for
-the robot to be elsewhere when they need it to be. `announce`: the result of the call during which
-it happened gets a sentence "Something changed: ..."; otherwise it is silent. Each one that happens
+All but `slip` are due at the `at_call`-th robot tool call since the reset (the episode's own count
+for the episode a reset begins; a later episode in the same world, T2 after T1, goes on counting),
+and wait for the robot to be elsewhere when they need it to be; `duration` counts the same calls.
+`announce`: the result of the call during which it happened gets a sentence "Something changed:
+..."; otherwise it is silent. Each one that happens
 is a `PerturbationEvent` (kind, what, the call it happened at), which the server hands to the client
 with the tool result (`_meta`, `PERTURBATION_META_KEY`) and the client writes into its trace.
 """
@@ -46,7 +48,7 @@ class Perturbation(BaseModel):
 
     kind: PerturbationKind = Field(description="slip | move_object | close_container | block_edge")
     at_call: int = Field(
-        default=1, ge=1, le=1000, description="due at this robot tool call of the episode (not for slip)"
+        default=1, ge=1, le=1000, description="due at this robot tool call since the reset (not for slip)"
     )
     on_drive: int = Field(default=1, ge=1, le=100, description="slip: during this drive with an object in hand")
     object: str | None = Field(default=None, min_length=1, max_length=NAME_CHARS, description="move_object: which")

@@ -39,7 +39,7 @@ class Trip:
 @dataclass
 class _Block:
     edge: frozenset[str]
-    until_call: int  # the block lifts when this call begins
+    until_tick: int  # the block lifts when this call (counted since the reset) begins
     spec: Perturbation
 
 
@@ -51,7 +51,8 @@ class Perturber:
     rng: np.random.Generator
     events: list[PerturbationEvent] = field(default_factory=list)
     blocks: list[_Block] = field(default_factory=list)
-    call: int = 0
+    call: int = 0  # the episode's call now (what an event records)
+    ticks: int = 0  # robot tool calls since the reset (what `at_call` and `duration` count)
     loaded_drives: int = 0
 
     @classmethod
@@ -61,10 +62,13 @@ class Perturber:
     # --- due at a call -----------------------------------------------------------------------------
 
     def before_call(self, sim: Sim, call: int) -> None:
-        """The robot tool call `call` of the episode begins: blocks that ran out lift, and what is due
-        happens (when the robot is elsewhere, for what someone does behind its back)."""
+        """A robot tool call begins (`call`: its number in the episode, what events record): blocks that
+        ran out lift, and what is due happens (when the robot is elsewhere, for what someone does
+        behind its back). Due times and durations count the calls since the reset, so an episode
+        begun later in the same world (T2 after T1) goes on counting."""
         self.call = call
-        for block in [b for b in self.blocks if call >= b.until_call]:
+        self.ticks += 1
+        for block in [b for b in self.blocks if self.ticks >= b.until_tick]:
             self.blocks.remove(block)
             a, b = block.spec.edge or ("", "")
             self._record(block.spec, f"The way between {a} and {b} is clear again.", edge=(a, b), ended=True)
@@ -73,7 +77,7 @@ class Perturber:
     def after_call(self, sim: Sim) -> None:
         """What is due and waited for the robot to leave happens (also as a call ends: the robot may
         have just driven away)."""
-        for p in [p for p in self.pending if p.kind != "slip" and p.at_call <= self.call]:
+        for p in [p for p in self.pending if p.kind != "slip" and p.at_call <= self.ticks]:
             if self._happen(sim, p):
                 self.pending.remove(p)
 
@@ -81,7 +85,7 @@ class Perturber:
         here = truth.robot_location(sim)
         if p.kind == "block_edge":
             a, b = p.edge or ("", "")
-            self.blocks.append(_Block(frozenset((a, b)), self.call + p.duration, p))
+            self.blocks.append(_Block(frozenset((a, b)), self.ticks + p.duration, p))
             self._record(p, f"The way between {a} and {b} is blocked.", edge=(a, b))
             return True
         if p.kind == "close_container":

@@ -109,6 +109,17 @@ def test_a_blocked_corridor_stops_move_to_and_frees_again_afterwards(world: Worl
     assert "Something changed" not in blocked.message  # silent: only the failure tells
 
 
+def test_calls_count_from_the_reset_so_a_later_episode_in_the_same_world_goes_on_counting(world: World) -> None:
+    world.reset(perturbations=[BLOCK])
+    robot = session_for(world)
+    assert perform(robot, ("move_to", "Kitchen Table")).status == "failure"  # call 1: blocked for 3 calls
+    robot.begin_task("T2")  # a new episode in the same world: its calls count from 1 again
+    assert perform(robot, ("move_to", "Kitchen Table")).status == "failure"  # 2nd call since the reset
+    perform(robot, ("look_around",))
+    assert perform(robot, ("move_to", "Kitchen Table")).status == "success"  # 4th: the block lifted
+    assert [(e.call, e.ended) for e in world.perturbation_events] == [(1, False), (3, True)]  # the episode's calls
+
+
 def test_an_object_moved_behind_the_robots_back_is_found_where_it_now_is(world: World) -> None:
     moved = Perturbation(kind="move_object", object="mug", to=("Hallway Area Door", "floor"), at_call=2, announce=True)
     world.reset(perturbations=[moved])
