@@ -126,13 +126,15 @@ FURNITURE: dict[str, Piece] = {
         (Part("frame", (0.0, 0.48, 0.225), (1.9, 0.9, 0.45)),),
         (Spot("top", "frame", (0.0, 0.68), (0.6, 0.35)),),
     ),
-    # Containers: the carcass's centre (u, v, z) is the one part; kitchen_plus's numbers.
+    # Containers: the carcass's centre (u, v, z) is the one part. kitchen_plus's drawer unit and fridge; a
+    # cabinet is a cupboard the fridge's size (a low, narrow one puts its top and door in the arm's way);
+    # the robot 0.4 m from a door's front, 0.75 m from a drawer's (the open drawer's tray 0.54 m away).
     "drawer": Piece(
         "drawer",
         "Drawer",
         0.6,
         0.48,
-        (0.0, 1.005),
+        (0.0, 1.23),
         (0.62, 0.48, 0.32, 1.0),
         (Part("carcass", (0.0, 0.255, 0.175), (0.6, 0.45, 0.35)),),
         container="drawer",
@@ -140,11 +142,11 @@ FURNITURE: dict[str, Piece] = {
     "cabinet": Piece(
         "cabinet",
         "Cabinet",
-        0.6,
-        0.48,
-        (0.15, 1.005),
+        0.7,
+        0.63,
+        (0.15, 1.03),
         (0.55, 0.42, 0.3, 1.0),
-        (Part("carcass", (0.0, 0.255, 0.3), (0.6, 0.45, 0.6)),),
+        (Part("carcass", (0.0, 0.33, 0.6), (0.7, 0.6, 1.2)),),
         container="cabinet",
     ),
     "fridge": Piece(
@@ -152,7 +154,7 @@ FURNITURE: dict[str, Piece] = {
         "Fridge",
         0.7,
         0.63,
-        (0.15, 1.08),
+        (0.15, 1.03),
         (0.92, 0.93, 0.95, 1.0),
         (Part("carcass", (0.0, 0.33, 0.7), (0.7, 0.6, 1.4)),),
         container="fridge",

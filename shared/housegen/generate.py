@@ -164,7 +164,7 @@ class _House:
         kinds = [*must, *rng.sample(may, rng.randint(1, len(may)))]
         x0, y0, x1, y1 = rect
         cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
-        dx, dy = rng.choice(((0.6, 0.0), (-0.6, 0.0), (0.0, 0.6), (0.0, -0.6)))
+        dx, dy = rng.choice(((0.5, 0.0), (-0.5, 0.0), (0.0, 0.5), (0.0, -0.5)))
         self.positions.append(_pos(room, "floor", (cx + dx, cy + dy), (0.4, 0.4), "floor"))
         for kind in kinds:
             piece = FURNITURE[kind]
@@ -200,7 +200,7 @@ class _House:
             self.containers.append(spec)
             ix0, iy0, ix1, iy1 = geometry(Container.model_validate(spec)).interior_rect()
             fx, fy = side.point(t, 0.0, part.center[1] + part.size[1] / 2)  # the front's middle
-            depth_in = 0.15 if piece.container == "fridge" else 0.125  # kitchen_plus's
+            depth_in = 0.145 if piece.container == "drawer" else 0.15
             px, py = (fx, fy - side.inward * depth_in) if side.axis == "x" else (fx - side.inward * depth_in, fy)
             size = side.size(0.3, 0.15 if piece.container == "fridge" else 0.2)
             px = min(max(px, ix0 + size[0] / 2), ix1 - size[0] / 2)
