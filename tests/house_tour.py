@@ -34,9 +34,9 @@ def tour(world: World) -> tuple[int, int, list[str]]:
     problems: list[str] = []
     for name in world.container_names:
         drive_to(world, world.scene.container(name).location)
-        done = world.operate(name, opened=True)
-        if done.outcome != "done":
-            problems.append(f"open {name}: {done.outcome}")
+        opened = world.operate(name, opened=True)
+        if opened.outcome != "done":
+            problems.append(f"open {name}: {opened.outcome}")
     carried = min(world.object_names, key=lambda o: (max(world.object_spec(o).size), o))
     start = world.placement(carried)
     home = (str(start.location), str(start.position))
