@@ -19,6 +19,9 @@ from pydantic_core import ErrorDetails
 
 from robocog.shared.errors import ConfigError
 
+#: libyaml's safe loader where PyYAML was built with it (its wheels are), else None.
+_FAST_LOADER = getattr(yaml, "CSafeLoader", None)
+
 Vec2 = tuple[float, float]
 Vec3 = tuple[float, float, float]
 Rgba = tuple[float, float, float, float]
@@ -96,6 +99,11 @@ def read_yaml(path: Path) -> Any:
         raise ConfigError(
             f"{path}: line {line}: not UTF-8 text (byte 0x{raw[exc.start]:02x}); save the file as UTF-8"
         ) from exc
+    if _FAST_LOADER is not None and "\t" not in text:  # PyYAML refuses a tab in a plain scalar; libyaml not
+        try:  # libyaml's parser: the same values, about eight times faster (a scene is most of a world's build)
+            return yaml.load(text, Loader=_FAST_LOADER)  # CSafeLoader: the safe loader
+        except (yaml.YAMLError, RecursionError):
+            pass  # the pure-Python parser below says what is wrong, in its own words
     try:
         return yaml.safe_load(text)
     except yaml.MarkedYAMLError as exc:

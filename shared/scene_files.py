@@ -2,7 +2,8 @@
 
 `load_scene` validates a scene file and the files it refers to (the robot description, its arm's
 URDF, objects' URDFs) where the world will look for them. A shipped scene is named by its file's
-stem (`scene_path("flat")`).
+stem (`scene_path("flat")`); the generated houses robocog ships (`assets/scenes/generated/`) are named
+the same way (`scene_path("house-007")`).
 """
 
 from __future__ import annotations
@@ -32,11 +33,18 @@ def load_scene(path: Path) -> Scene:
 
 #: Where the shipped scenes live; a scene is named by its file's stem.
 SCENES_DIR = ASSETS_DIR / "scenes"
+#: Where the generated houses robocog ships live (`robocog.shared.housegen`), also named by stem.
+GENERATED_DIR = SCENES_DIR / "generated"
 
 
 def scene_names() -> list[str]:
-    """The shipped scenes' names, sorted."""
+    """The shipped scenes' names, sorted (the generated houses are `generated_scene_names`)."""
     return sorted(p.stem for p in SCENES_DIR.glob("*.yaml"))
+
+
+def generated_scene_names() -> list[str]:
+    """The generated houses robocog ships, sorted: house-000 ... house-049."""
+    return sorted(p.stem for p in GENERATED_DIR.glob("*.yaml"))
 
 
 def scene_path(scene: str | Path) -> Path:
@@ -49,9 +57,13 @@ def scene_path(scene: str | Path) -> Path:
     text = str(scene)
     if path.is_file() or path.suffix or "/" in text or "\\" in text:
         return path
-    named = SCENES_DIR / f"{text}.yaml"
-    if named.is_file():
-        return named
+    for folder in (SCENES_DIR, GENERATED_DIR):
+        named = folder / f"{text}.yaml"
+        if named.is_file():
+            return named
+    houses = generated_scene_names()
+    generated = f", and the generated houses {houses[0]} ... {houses[-1]}" if houses else ""
     raise ConfigError(
-        f"scene {text!r}: no such scene; known scenes: {', '.join(scene_names())} (or give the path of a scene YAML)"
+        f"scene {text!r}: no such scene; known scenes: {', '.join(scene_names())}{generated} "
+        "(or give the path of a scene YAML)"
     )

@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 
 from robocog.shared.config_files import Vec2
-from robocog.shared.containers import geometry
+from robocog.shared.containers import Geometry, geometry
 from robocog.shared.scene import Scene, Wall
 
 #: Metres from a location to the centre of one of its place positions that the arm reaches (the
@@ -63,9 +63,9 @@ def layout_problems(scene: Scene) -> list[str]:
     reachable from the robot's start over the edges, inside a room and clear of walls and furniture;
     no two pieces of furniture, nor furniture and a wall, overlapping; each place position on its
     support (a furniture part's top, a container's interior, or free floor), within the arm's reach of
-    its location, and apart from the other positions on the same surface; and each container clear of
-    walls, furniture and other containers, with the floor its drawer or door sweeps as it opens clear
-    of them too (`container_problems`).
+    its location (a drawer's where the drawer is open), and apart from the other positions on the same
+    surface; and each container clear of walls, furniture and other containers, with the floor its
+    drawer or door sweeps as it opens clear of them too (`container_problems`).
     """
     problems: list[str] = []
     # The navigation graph is connected.
@@ -112,7 +112,10 @@ def layout_problems(scene: Scene) -> list[str]:
         label = f"place position {pos.location} / {pos.name}"
         region = _rect(pos.center, pos.size)
         loc = scene.location(pos.location)
-        far = math.hypot(pos.center[0] - loc.x, pos.center[1] - loc.y)
+        cx, cy = pos.center
+        if pos.support in containers and containers[pos.support].interior_moves:
+            cx, cy = _opened(containers[pos.support], cx, cy)  # the robot reaches into the open drawer
+        far = math.hypot(cx - loc.x, cy - loc.y)
         if far > REACH_M:
             problems.append(f"{label}: {far:.2f} m from its location, past the arm's reach ({REACH_M} m)")
         if pos.support in containers:
@@ -139,6 +142,11 @@ def layout_problems(scene: Scene) -> list[str]:
     return problems
 
 
+def _opened(g: Geometry, x: float, y: float) -> tuple[float, float]:
+    """Where a point of a drawer's interior is when the drawer is fully open."""
+    return x + g.facing[0] * g.open_q, y + g.facing[1] * g.open_q
+
+
 def container_problems(scene: Scene, furniture: dict[str, _Rect]) -> list[str]:
     """What stops a container from standing or opening: its carcass, or the floor its drawer or door
     sweeps as it opens fully, overlapping a wall, furniture (`furniture`: footprints by part) or another
@@ -162,6 +170,8 @@ def container_problems(scene: Scene, furniture: dict[str, _Rect]) -> list[str]:
                         problems.append(f"container {name}: {what}it overlaps {their}container {later.spec.name}")
         loc = scene.location(g.spec.location)
         x0, y0, x1, y1 = g.interior_rect()
+        if g.interior_moves:  # a drawer's interior is reached where the drawer is open
+            (x0, y0), (x1, y1) = _opened(g, x0, y0), _opened(g, x1, y1)
         near = math.hypot(max(x0 - loc.x, 0.0, loc.x - x1), max(y0 - loc.y, 0.0, loc.y - y1))
         if near > REACH_M:
             problems.append(

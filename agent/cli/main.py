@@ -29,6 +29,7 @@ COMMANDS: dict[str, str] = {
     "leaderboard": "leaderboard",
     "submit": "submit",
     "suite": "suite",
+    "scene": "scene",
     "contract": "contract",
     "serve": "serve",
 }

@@ -17,7 +17,7 @@ from typing import Literal
 import pybullet
 
 from robocog.server.world import truth
-from robocog.server.world.sim import Grasp, Sim
+from robocog.server.world.sim import Grasp, Position, Sim
 from robocog.shared.results import ObjectPlacement
 
 Vec3 = tuple[float, float, float]
@@ -138,6 +138,8 @@ def pick(sim: Sim, name: str) -> Reach:
     if err > spec.grasp_threshold:
         return Reach(ok=False, failure="unreachable", gap_m=err)
     approach = approach_point(sim, grasp_point)
+    if any(_in_drawer(sim, pos) and sim.holds_xy(pos, x, y) for pos in sim.positions.values()):
+        approach = (x, y, grasp_point[2] + DRAWER_LIFT)  # from above, over the drawer's front
     lifted = (grasp_point[0], grasp_point[1], grasp_point[2] + 0.03)
     move_arm(sim, robot.solve_ik(approach)[0])
     move_hand_straight(sim, approach, lifted)
@@ -156,6 +158,15 @@ def pick(sim: Sim, name: str) -> Reach:
     return Reach(ok=True)
 
 
+#: How high above a drawer's tray the hand comes before it lowers an object in (the front is 0.35 m or less).
+DRAWER_LIFT = 0.3
+
+
+def _in_drawer(sim: Sim, pos: Position) -> bool:
+    """Whether a place position lies in a drawer's tray (whose front stands between the robot and it)."""
+    return pos.container is not None and sim.containers[pos.container].geometry.interior_moves
+
+
 def put_down(sim: Sim, location: str, position: str) -> Reach:
     """Lower the held object onto the place position, let it go upright, and see where it comes to rest."""
     assert sim.grasp is not None, "put_down needs an object in the hand"
@@ -171,6 +182,8 @@ def put_down(sim: Sim, location: str, position: str) -> Reach:
     if err > spec.grasp_threshold:
         return Reach(ok=False, failure="unreachable", gap_m=err)
     approach = approach_point(sim, target_hand)
+    if _in_drawer(sim, pos):  # over the drawer's front, not through it: down into the tray from above
+        approach = (target_hand[0], target_hand[1], target_hand[2] + DRAWER_LIFT)
     move_arm(sim, robot.solve_ik(approach)[0])
     move_hand_straight(sim, approach, target_hand)
     yaw = c.getEulerFromQuaternion(c.getBasePositionAndOrientation(obj.body)[1])[2]

@@ -311,8 +311,8 @@ def test_unknown_scene_name_lists_the_known_ones() -> None:
     with pytest.raises(ConfigError) as info:
         scene_path("castle")
     assert str(info.value) == (
-        "scene 'castle': no such scene; known scenes: flat, household, kitchen_plus, suite_house "
-        "(or give the path of a scene YAML)"
+        "scene 'castle': no such scene; known scenes: flat, household, kitchen_plus, suite_house, "
+        "and the generated houses house-000 ... house-049 (or give the path of a scene YAML)"
     )
     with pytest.raises(ConfigError, match="known scenes: flat, household, kitchen_plus, suite_house"):
         World("castle")
