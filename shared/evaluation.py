@@ -189,6 +189,11 @@ class AttemptRow(BaseModel):
     robot_actions: int | None = Field(
         default=None, description="the robot actions (move_to, grab, place calls) in the trace; efficiency's numerator"
     )
+    perturbations: list[str] = Field(
+        default=[],
+        description="the kinds of what went wrong in the world during the attempt, in order (from its trace's "
+        "perturbation events; a block lifting is not counted again)",
+    )
     capabilities: list[str] = Field(
         default=[], description="the instance's capability tags (a suite that tags its instances); none in robocog-v1"
     )

@@ -35,6 +35,7 @@ from robocog.agent.analysis.capability_figure import draw_capability
 from robocog.agent.analysis.figures import FigureFiles, draw_figures
 from robocog.agent.analysis.provenance import disagreements
 from robocog.agent.analysis.report_families import families_section
+from robocog.agent.analysis.report_perturbations import perturbation_scores, perturbations_section
 from robocog.agent.analysis.report_sections import (
     belief_section,
     consistency_section,
@@ -59,6 +60,7 @@ def markdown(
     scores: Sequence[FamilyRow] = (),
     capability: str | None = None,
     provenance: Sequence[str] = (),
+    perturbed: Sequence[str] = (),
 ) -> str:
     """The text of report.md (`figures` is None when no attempt counts: then only the errors); the
     per-family section when `scores` are given, with the `capability` figure when drawn; the
@@ -86,6 +88,7 @@ def markdown(
     parts += consistency_section(summary)
     if scores:
         parts += families_section(scores, capability)
+    parts += perturbed
     parts += cost_section(summary, csv_format)
     return "\n".join(parts)
 
@@ -115,6 +118,8 @@ def render(
     data = summary.as_json()
     data["families"] = [s.as_json() for s in scores]
     data["provenance_disagreements"] = provenance
+    perturbed = perturbation_scores(rows)
+    data["perturbations"] = perturbed
     (out / "summary.json").write_text(json.dumps(data, indent=2), encoding="utf-8")
     if csv_format == "upstream":
         write_upstream_csv(rows, out / "results.csv")
@@ -132,6 +137,7 @@ def render(
         scores=scores,
         capability=capability,
         provenance=provenance,
+        perturbed=perturbations_section(perturbed),
     )
     report.write_text(text, encoding="utf-8")
     return report

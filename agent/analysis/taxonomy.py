@@ -39,7 +39,16 @@ from typing import TYPE_CHECKING, Any
 
 from robocog.shared.evaluation import AttemptRow
 from robocog.shared.names import name_key
-from robocog.shared.trace import RunFinished, RunStarted, ToolCall, ToolResult, TraceEvent, Verdict, read_trace
+from robocog.shared.trace import (
+    Perturbed,
+    RunFinished,
+    RunStarted,
+    ToolCall,
+    ToolResult,
+    TraceEvent,
+    Verdict,
+    read_trace,
+)
 
 if TYPE_CHECKING:
     from robocog.shared.scene import Scene
@@ -240,10 +249,12 @@ def classify(
 def row_fields(
     events: Sequence[TraceEvent], *, feasible: bool = True, optimal_steps: int | None = None
 ) -> dict[str, Any]:
-    """What an `AttemptRow` takes from its trace: `errors` (the taxonomy) and `robot_actions`."""
+    """What an `AttemptRow` takes from its trace: `errors` (the taxonomy), `robot_actions` and the
+    `perturbations` that happened."""
     return {
         "errors": classify(events, feasible=feasible, optimal_steps=optimal_steps),
         "robot_actions": robot_actions(events),
+        "perturbations": [e.event.kind for e in events if isinstance(e, Perturbed) and not e.event.ended],
     }
 
 

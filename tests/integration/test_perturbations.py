@@ -127,3 +127,14 @@ async def test_a_study_sends_its_perturbations_with_every_reset_and_traces_them(
     assert slipped.event.kind == "slip" and slipped.event.announced
     result = next(e for e in events if isinstance(e, ToolResult) and e.id == slipped.id)
     assert result.name == "move_to" and "Something changed: The " in result.content
+    # the row says what went wrong, and the report sets perturbed attempts apart
+    from robocog.agent.analysis.report import render
+
+    assert rows[0].perturbations == ["slip"]
+    calm = rows[0].model_copy(update={"perturbations": [], "trial": 1, "true_success": True})
+    report = render([rows[0], calm], tmp_path / "report").read_text(encoding="utf-8")
+    section = report.split("## Perturbations", 1)[1]
+    line = next(x for x in section.splitlines() if x.startswith("| scripted/planner"))
+    success = "100.0% (1/1)" if rows[0].true_success else "0.0% (0/1)"
+    assert line.split(" | ")[1:5] == ["1 of 2", "slip ×1", success, "100.0% (1/1)"]
+    assert "## Perturbations" not in render([calm], tmp_path / "calm").read_text(encoding="utf-8")
