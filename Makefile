@@ -107,7 +107,7 @@ docs: $(DOCS_STAMP) $(TYPES) ## Build the docs site into build/site (strict: a b
 	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet --site-dir build/site
 	@echo "docs written to build/site/index.html"
 
-bundle: $(STAMP) ## Build the MCP Bundle dist/robocog.mcpb (manifest 0.4, server type uv; needs the package index)
+bundle: $(CORE) ## Build the MCP Bundle dist/robocog.mcpb (manifest 0.4, server type uv; installs the core only; needs the package index)
 	$(BIN)/python packaging/build_bundle.py
 
 # The official packer (pinned, from npm) validates the manifest and packs the staged bundle (needs Node.js).
