@@ -103,6 +103,7 @@ def study_cpu_s(bin_dir: Path, trials: int, isolation: str) -> float:
 
 
 def marginal_cpu_s(bin_dir: Path, isolation: str, extra: int) -> float:
+    study_cpu_s(bin_dir, 1, isolation)  # a warm-up: bytecode written, page cache filled, for both installs
     return (study_cpu_s(bin_dir, 1 + extra, isolation) - study_cpu_s(bin_dir, 1, isolation)) / extra
 
 
