@@ -99,7 +99,9 @@ async def test_robots_share_the_servers_namespace_unless_told_otherwise(tmp_path
             assert len((await call_ok(a, "search_memory", query="grasp the TV"))["results"]) == 1
 
 
-#: A client that takes a robot and then waits forever (until it is killed).
+#: A client that takes a robot and then waits forever (until it is killed). It says so once its event
+#: stream (the GET the SDK opens after initialize) has had time to open on a loaded machine: a client
+#: killed before it ever opened one shows the server nothing, and is freed only by --session-idle-s.
 HOLDER = """
 import sys, anyio
 from mcp import Client
@@ -108,6 +110,7 @@ from mcp.client.streamable_http import streamable_http_client
 async def main():
     async with Client(streamable_http_client(sys.argv[1]), mode="legacy") as client:
         assert not (await client.call_tool("move_to", {"location": "Kitchen Door"})).is_error
+        await anyio.sleep(3)
         print("holding", flush=True)
         await anyio.sleep(3600)
 
@@ -120,7 +123,8 @@ async def test_robots_of_clients_killed_mid_session_are_freed_promptly(tmp_path:
 
     import anyio
 
-    with http_server(tmp_path / "server.log", *fleet_args(tmp_path)) as url:
+    # at INFO the log says which sessions were closed and why, should this ever fail
+    with http_server(tmp_path / "server.log", *fleet_args(tmp_path), "--log-level", "INFO") as url:
         holders = [
             subprocess.Popen([sys.executable, "-c", HOLDER, url], stdout=subprocess.PIPE, env=server_env())
             for _ in range(2)
