@@ -259,13 +259,14 @@ class VanishedClients:
                 seen.had_stream = True
             else:
                 seen.posts += 1
-        new_sid: list[str] = []
 
         async def watching(message: Message) -> None:
+            # A new session (initialize) is known before its client can learn its id, so the event
+            # stream the client opens next is counted even while this request is still finishing.
             if message["type"] == "http.response.start" and sid is None and message["status"] < 400:
                 for key, value in message.get("headers", []):
                     if key.lower() == b"mcp-session-id":
-                        new_sid.append(value.decode("latin-1"))
+                        self._remember(scope, value.decode("latin-1"))
             await send(message)
 
         try:
@@ -277,10 +278,13 @@ class VanishedClients:
                 if method == "GET":
                     seen.streams -= 1
                 seen.quiet_since = now
-            for opened in new_sid:  # a new session (initialize): remember how to close it
-                headers = [(k, v) for k, v in scope.get("headers", []) if k.lower() != b"content-length"]
-                headers.append((b"mcp-session-id", opened.encode("latin-1")))
-                self.sessions[opened] = _Seen({**scope, "headers": headers}, opened=now, quiet_since=now)
+
+    def _remember(self, scope: Scope, opened: str) -> None:
+        """A new session (initialize): remember how to close it."""
+        now = self.clock()
+        headers = [(k, v) for k, v in scope.get("headers", []) if k.lower() != b"content-length"]
+        headers.append((b"mcp-session-id", opened.encode("latin-1")))
+        self.sessions[opened] = _Seen({**scope, "headers": headers}, opened=now, quiet_since=now)
 
     def gone(self, now: float) -> list[tuple[str, str]]:
         """The sessions to close now, and why (those the SDK has idled out are forgotten)."""
