@@ -151,6 +151,14 @@ def server_env() -> dict[str, str]:
     return {k: v for k, v in os.environ.items() if k != "ROBOCOG_AUTH_TOKEN"} | {"ANONYMIZED_TELEMETRY": "False"}
 
 
+def installed_env() -> dict[str, str]:
+    """The environment for timing another install's commands as a user runs them: bytecode written
+    (make exports PYTHONDONTWRITEBYTECODE, and an install without bytecode would compile on every
+    start, which no user's does), LiteLLM's local cost map, no telemetry."""
+    kept = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    return kept | {"LITELLM_LOCAL_MODEL_COST_MAP": "True", "ANONYMIZED_TELEMETRY": "False"}
+
+
 @contextmanager
 def http_server_process(
     log: Path, *args: str, timeout_s: float = 60, env: dict[str, str] | None = None

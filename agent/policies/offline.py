@@ -195,10 +195,18 @@ def replay_turn(model: str, messages: list[Any]) -> dict[str, Any]:
     return turns[index]
 
 
+def next_message(model: str, messages: list[Any], params: dict[str, Any]) -> tuple[dict[str, Any], float]:
+    """An offline model's next assistant message and the wait before it (scripted models' latency);
+    `OfflineModelError` for what it refuses."""
+    if model.startswith("replay/"):
+        return replay_turn(model, messages), 0.0
+    return scripted_turn(model, messages, params)
+
+
 def offline_turn(model: str, messages: list[Any], params: dict[str, Any]) -> tuple[OfflineResponse, float]:
     """An offline model's response to `messages` and the wait before it (scripted models' latency).
     Scripted turns cost nothing (0.0); a replayed turn's cost is unknown (None)."""
+    message, delay = next_message(model, messages, params)
     if model.startswith("replay/"):
-        return response(model, replay_turn(model, messages), prompt_chars(messages), None), 0.0
-    message, delay = scripted_turn(model, messages, params)
+        return response(model, message, prompt_chars(messages), None), delay
     return response(f"scripted/{model.split('/')[-1]}", message, prompt_chars(messages), 0.0), delay

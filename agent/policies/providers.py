@@ -18,10 +18,9 @@ from litellm.types.utils import Choices, Message, Usage
 from robocog.agent.policies.offline import (
     SCRIPTED_MODELS,
     OfflineModelError,
+    next_message,
     prompt_chars,
-    replay_turn,
     response,
-    scripted_turn,
 )
 
 litellm.suppress_debug_info = True  # no "Give Feedback / Get Help" banners on failed calls
@@ -55,10 +54,7 @@ def _litellm_turn(provider: str, model: str, messages: list, kwargs: dict[str, A
     name = model if model.startswith(f"{provider}/") else f"{provider}/{model}"
     params = kwargs.get("optional_params") or {}
     try:
-        if provider == "replay":
-            message, delay = replay_turn(name, messages), 0.0
-        else:
-            message, delay = scripted_turn(name, messages, params)
+        message, delay = next_message(name, messages, params)
     except OfflineModelError as exc:
         raise litellm.BadRequestError(message=str(exc), model=name, llm_provider=provider) from None
     return model_response(name, message, prompt_chars(messages)), delay

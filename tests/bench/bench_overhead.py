@@ -33,15 +33,11 @@ from robocog.server.tools import ROBOT_TOOLS
 from robocog.server.world.world import World
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository, for tests.helpers
-from tests.helpers import T1_SEQUENCE, action_args
+from tests.helpers import T1_SEQUENCE, action_args, installed_env
 
 EXTRA = 10
 PHYSICS_RUNS = 7
-ENV = {
-    **{k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"},
-    "LITELLM_LOCAL_MODEL_COST_MAP": "True",
-    "ANONYMIZED_TELEMETRY": "False",
-}
+ENV = installed_env()
 
 
 def physics_cpu_s() -> float:

@@ -22,14 +22,11 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository, for tests.helpers
+from tests.helpers import installed_env
+
 RUNS = 5
-#: Bytecode is written (make exports PYTHONDONTWRITEBYTECODE): an install without it would pay for
-#: compiling on every start, which no user's does.
-ENV = {
-    **{k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"},
-    "LITELLM_LOCAL_MODEL_COST_MAP": "True",
-    "ANONYMIZED_TELEMETRY": "False",
-}
+ENV = installed_env()
 #: initialize, initialized, tools/list: the first answer a host waits for, on any protocol version
 #: the server takes (2025-06-18 here: every release of robocog's server speaks it).
 HANDSHAKE = "\n".join(
