@@ -47,5 +47,6 @@ def main(args: argparse.Namespace) -> int:
         print(f"robocog: warning: {line}", file=sys.stderr)
     entries = written.board.entries
     verified = sum(e.verification.verified for e in entries)
-    print(f"leaderboard: {written.index} ({len(entries)} entries from {len(studies)} studies, {verified} verified)")
+    from_ = f"{len(studies)} {'study' if len(studies) == 1 else 'studies'}"
+    print(f"leaderboard: {written.index} ({len(entries)} entries from {from_}, {verified} verified)")
     return 0
