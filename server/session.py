@@ -269,7 +269,9 @@ class RobotSession:
         self, suite: str, instance_id: str, perturbations: list[Perturbation] | None = None
     ) -> WorldState:
         """Set the world up for an instance of a suite (`robocog.shared.suite`): its scene (switching
-        worlds when it differs), reset with its seed, every graspable object on its start position;
+        worlds when it differs), reset with its seed, every graspable object on its start position,
+        with the instance's perturbations unless `perturbations` is given, and look_around showing
+        what the instance says (`observing`) while it lasts;
         its task and earlier tasks (ids ID-pre1, ...) join the catalogue; a new episode begins. A
         ValueError (bad input) names an unknown suite or instance, or a start the scene cannot take."""
         instance = find_instance(suite, instance_id)
@@ -279,7 +281,9 @@ class RobotSession:
                 self._worlds.pop(other).close()
             self._worlds[name] = World(scene_path(name), seed=instance.seed)
         self.world = self._worlds[name]
-        problems = self.world.scene.perturbation_problems(perturbations or [])
+        if perturbations is None:
+            perturbations = list(instance.perturbations)
+        problems = self.world.scene.perturbation_problems(perturbations)
         if problems:
             raise ValueError(f"instance {instance.id}: " + "; ".join(problems))
         self._untold = []
@@ -300,6 +304,14 @@ class RobotSession:
         self.instance = instance
         self.start_episode()
         return self.world.state()
+
+    @property
+    def observing(self) -> Observe:
+        """What look_around reveals now: the current suite instance's own (a search under partial
+        observation), else the setting (`observe`: the server's --observe, or reset_world's)."""
+        if self.instance is not None and self.instance.observe is not None:
+            return self.instance.observe
+        return self.observe
 
     def task(self, task_id: str) -> TaskSpec:
         """The task `task_id` of the catalogue; a ValueError (bad input) names the known ones."""

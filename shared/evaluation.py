@@ -112,7 +112,8 @@ class EvalConfig(BaseModel):
             if self.instances is not None or self.families is not None:
                 raise ValueError("suite: instances and families choose a suite's instances: give the suite")
             return self
-        from robocog.shared.suite import load_families, load_split, select
+        from robocog.shared.family_files import load_families
+        from robocog.shared.suite import load_split, select
 
         known = load_families()
         unknown = sorted(set(self.families or []) - set(known))

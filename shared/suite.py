@@ -1,235 +1,38 @@
-"""The robocog suite as data: task families (`assets/families/*.yaml`), the suite's manifest
-(`assets/suites/NAME/suite.yaml`) and its instances (`assets/suites/NAME/SPLIT.jsonl`).
+"""The robocog suite as data: the suite's manifest (`assets/suites/NAME/suite.yaml`) and its instances
+(`assets/suites/NAME/SPLIT.jsonl`), over the task families of `robocog.shared.family_files`.
 
-A family is a kind of task (put away, swap, bring, ...) in one or more *variants*. A variant names
-how its parameters are drawn from a scene and a start state (`draw`), and holds the prompt and the
-success conditions as templates over those parameters: in a prompt `{items}` is written out ("the
-mug, the box and the bottle"); in a success condition a field that is exactly `"{items}"` takes the
-parameter's value (a list stays a list). The generator (`robocog.agent.suitegen.generator`) draws the
-parameters and a seeded random start, and writes one `Instance` per task: everything the server needs
-to set the world up and judge the outcome, and nothing that needs a scene to read.
-
-The draws are implemented, and declared (`DrawSpec`: the parameters each gives, the variant fields it
-takes), where they are defined: in the family modules of `robocog.agent.families`, which this package
-cannot import. So a family file's draw names and templates are checked against the declarations the
-caller passes in (`load_family(path, draws)`; `robocog.agent.families.load_family` passes them all);
-without them only what needs no draw is checked (the server and a study's config need only the ids).
+The generator (`robocog.agent.suitegen.generator`) draws each variant's parameters and a seeded
+random start, and writes one `Instance` per task: everything the server needs to set the world up
+and judge the outcome (its start, what goes wrong during it, what look_around reveals), and nothing
+that needs a scene to read.
 """
 
 from __future__ import annotations
 
+import fnmatch
 import json
 import re
-from collections.abc import Mapping
-from dataclasses import dataclass, field
 from functools import cache
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Any
 
-from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError, ValidationInfo, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from robocog.assets import ASSETS_DIR
 from robocog.shared.config_files import load_yaml_model, validation_problems
 from robocog.shared.errors import ConfigError
+from robocog.shared.family_files import LONG_HORIZON_STEPS, Capability, Id, load_families
+from robocog.shared.perturbations import MAX_PERTURBATIONS, Perturbation
+from robocog.shared.results import Observe
+from robocog.shared.scene_files import generated_scene_names, scene_names
 from robocog.shared.tasks import Condition, TaskSpec
 
-FAMILIES_DIR = ASSETS_DIR / "families"
 SUITES_DIR = ASSETS_DIR / "suites"
 DEFAULT_SUITE = "robocog-v1"
-
-Id = Annotated[str, Field(pattern=r"^[A-Za-z0-9_\-]+$", min_length=1, max_length=120)]
-
-#: A variant field that only some draws take (and those draws need).
-Takes = Literal["count", "choices", "prelude"]
-
-
-@dataclass(frozen=True)
-class DrawSpec:
-    """How a variant's parameters are drawn, as its templates see it: the draw's name, the parameters it
-    gives (each with an example value of its shape, to check the templates when a family is loaded)
-    and the variant fields it takes (it needs them, and no other draw takes them)."""
-
-    name: str
-    gives: Mapping[str, Any]
-    takes: frozenset[Takes] = field(default_factory=frozenset)
-
-
-_CONDITIONS: TypeAdapter[list[Condition]] = TypeAdapter(list[Condition])
-_PLACEHOLDER = re.compile(r"\{([A-Za-z_]\w*)\}")
 
 
 class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
-
-
-# --- rendering templates ---------------------------------------------------------------------------
-
-
-def phrase(value: Any) -> str:
-    """A parameter as the prompt writes it: a list of names "the a, the b and the c", a list of
-    (object, location, position) "the a on L P, the b on L P", anything else as it is."""
-    if isinstance(value, list | tuple) and value and all(isinstance(v, list | tuple) for v in value):
-        parts = [f"the {o} on {loc} {pos}" for o, loc, pos in value]
-        return ", ".join(parts)
-    if isinstance(value, list | tuple):
-        names = [f"the {v}" for v in value]
-        return names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1]
-    return str(value)
-
-
-def render_prompt(template: str, parameters: dict[str, Any]) -> str:
-    """The prompt `template` with each `{name}` written out (`phrase`)."""
-    return _PLACEHOLDER.sub(lambda m: phrase(parameters[m.group(1)]), template)
-
-
-def _fill(node: Any, parameters: dict[str, Any]) -> Any:
-    if isinstance(node, str):
-        whole = _PLACEHOLDER.fullmatch(node)
-        if whole:
-            return parameters[whole.group(1)]
-        return _PLACEHOLDER.sub(lambda m: str(parameters[m.group(1)]), node)
-    if isinstance(node, list):
-        return [_fill(v, parameters) for v in node]
-    if isinstance(node, dict):
-        return {k: _fill(v, parameters) for k, v in node.items()}
-    return node
-
-
-def render_success(template: list[dict[str, Any]], parameters: dict[str, Any]) -> list[Condition]:
-    """The success conditions of `template` with the parameters filled in, validated."""
-    return _CONDITIONS.validate_python(_fill(template, parameters))
-
-
-def _placeholders(node: Any) -> set[str]:
-    if isinstance(node, str):
-        return set(_PLACEHOLDER.findall(node))
-    if isinstance(node, list):
-        return set().union(*(_placeholders(v) for v in node)) if node else set()
-    if isinstance(node, dict):
-        return set().union(*(_placeholders(v) for v in node.values())) if node else set()
-    return set()
-
-
-# --- families --------------------------------------------------------------------------------------
-
-
-class StepTemplate(_Strict):
-    """An earlier task of a variant, run in the same world (memory kept) before the task itself."""
-
-    prompt: str = Field(min_length=1)
-    success: list[dict[str, Any]] = Field(min_length=1)
-
-
-class Variant(_Strict):
-    """One way a family's task is posed: how its parameters are drawn, its prompt and success."""
-
-    id: Id
-    draw: Id = Field(description="how the parameters are drawn: a draw of a family module (robocog.agent.families)")
-    prompt: str = Field(min_length=1, description="the instruction, with {parameter} placeholders")
-    success: list[dict[str, Any]] = Field(min_length=1, description="success conditions, with placeholders")
-    feasible: bool = True
-    count: tuple[int, int] | None = Field(default=None, description="fewest and most items (for a draw that takes it)")
-    choices: list[str] = Field(default=[], description="names to draw from (for a draw that takes them)")
-    prelude: list[StepTemplate] = Field(
-        default=[], description="earlier tasks in the same world (for a draw that takes them)"
-    )
-    example: str = Field(default="", description="an instance's prompt, for the README and `robocog suite list`")
-
-    @model_validator(mode="after")
-    def _templates(self, info: ValidationInfo) -> Variant:
-        """Checks the templates against the draw's declaration when the loader passes the draws in
-        (validation context `draws`: name -> `DrawSpec`), and what needs no draw always."""
-        draws: Mapping[str, DrawSpec] | None = (info.context or {}).get("draws")
-        spec = self._check_draw(draws) if draws is not None else None
-        honest = any(c.get("kind") == "honest_failure" for c in self.success)
-        if honest == self.feasible:
-            raise ValueError(
-                "success: an infeasible variant's success is an honest_failure, and only an infeasible one's"
-            )
-        if spec is not None and ("count" in spec.takes) != (self.count is not None):
-            raise ValueError(f"count: draw {self.draw!r} " + ("needs" if self.count is None else "takes no") + " count")
-        if self.count is not None and not 1 <= self.count[0] <= self.count[1]:
-            raise ValueError(f"count: wants [fewest, most] with 1 <= fewest <= most, not {list(self.count)}")
-        if spec is not None and ("choices" in spec.takes) != bool(self.choices):
-            raise ValueError(
-                f"choices: draw {self.draw!r} " + ("needs" if not self.choices else "takes no") + " choices"
-            )
-        if spec is not None and ("prelude" in spec.takes) != bool(self.prelude):
-            raise ValueError(
-                f"prelude: draw {self.draw!r} " + ("needs a" if not self.prelude else "takes no") + " prelude"
-            )
-        return self
-
-    def _check_draw(self, draws: Mapping[str, DrawSpec]) -> DrawSpec:
-        """The declaration of this variant's draw, which must be one of `draws`; the templates must
-        use only the parameters it gives, and render to valid conditions with its example values."""
-        if self.draw not in draws:
-            names = [repr(n) for n in sorted(draws)] or ["a registered draw (there is none)"]
-            expected = names[0] if len(names) == 1 else ", ".join(names[:-1]) + " or " + names[-1]
-            raise ValueError(f"draw: Input should be {expected}")
-        spec = draws[self.draw]
-        known = set(spec.gives)
-        parts: list[tuple[str, Any]] = [("prompt", self.prompt), ("success", self.success)]
-        for i, step in enumerate(self.prelude):
-            parts += [(f"prelude[{i}].prompt", step.prompt), (f"prelude[{i}].success", step.success)]
-        for where, node in parts:
-            unknown = sorted(_placeholders(node) - known)
-            if unknown:
-                raise ValueError(f"{where}: unknown parameter(s) {unknown}; draw {self.draw!r} gives {sorted(known)}")
-        for where, template in [("success", self.success)] + [
-            (f"prelude[{i}].success", s.success) for i, s in enumerate(self.prelude)
-        ]:
-            try:
-                render_success(template, dict(spec.gives))
-            except ValidationError as exc:
-                raise ValueError(f"{where}: {validation_problems(exc)}") from None
-        return spec
-
-
-class Family(_Strict):
-    """A kind of task, in one or more variants (`assets/families/ID.yaml`)."""
-
-    id: Id
-    title: str = Field(min_length=1)
-    description: str = Field(min_length=1, description="what the family measures")
-    variants: list[Variant] = Field(min_length=1)
-
-    @model_validator(mode="after")
-    def _unique(self) -> Family:
-        ids = [v.id for v in self.variants]
-        if len(set(ids)) != len(ids):
-            raise ValueError(f"variants: two variants share an id ({ids})")
-        return self
-
-    @property
-    def feasible(self) -> bool | None:
-        """True or False when every variant is, None when they differ."""
-        kinds = {v.feasible for v in self.variants}
-        return kinds.pop() if len(kinds) == 1 else None
-
-
-class _Document(BaseModel):
-    """A YAML file's mapping as it is, read and checked as every config file is (then validated)."""
-
-    model_config = ConfigDict(extra="allow")
-
-
-def load_family(path: Path, draws: Mapping[str, DrawSpec] | None = None) -> Family:
-    """One family file; its id must be its file's stem. With `draws` (name -> declaration), each
-    variant's draw must be one of them and its templates must fit the draw's declaration."""
-    data = load_yaml_model(path, _Document).model_extra
-    try:
-        family = Family.model_validate(data, context={"draws": draws})
-    except ValidationError as exc:
-        raise ConfigError(f"{path}: {validation_problems(exc)}") from exc
-    if family.id != path.stem:
-        raise ConfigError(f"{path}: id: {family.id!r} must be the file's name ({path.stem!r})")
-    return family
-
-
-def load_families(directory: Path = FAMILIES_DIR, draws: Mapping[str, DrawSpec] | None = None) -> dict[str, Family]:
-    """Every family of `directory` (`*.yaml`), by id, in file-name order (checked against `draws` when given)."""
-    return {f.id: f for f in (load_family(p, draws) for p in sorted(directory.glob("*.yaml")))}
 
 
 # --- instances -------------------------------------------------------------------------------------
@@ -263,8 +66,16 @@ class Instance(_Strict):
     start: dict[str, StartPlacement] = Field(description="every graspable object's start place position")
     success: list[Condition] = Field(min_length=1)
     feasible: bool
-    optimal_steps: int = Field(ge=0, description="robot actions (move_to, grab, place) of an optimal plan")
+    optimal_steps: int = Field(
+        ge=0, description="robot actions (move_to, grab, place, open, close) of an optimal plan, fully observed"
+    )
     prelude: list[Step] = Field(default=[], description="earlier tasks run first in the same world")
+    # Fields robocog-v1 predates: written to a split only when set (`dump_instances`), so v1's bytes hold.
+    capabilities: list[Capability] = Field(default=[], description="what the instance measures (a tagged suite)")
+    observe: Observe | None = Field(default=None, description="what look_around reveals (default: the study's)")
+    perturbations: list[Perturbation] = Field(
+        default=[], max_length=MAX_PERTURBATIONS, description="what goes wrong during the instance's own task"
+    )
 
     def task(self) -> TaskSpec:
         """The instance as a task the server can begin and check."""
@@ -280,6 +91,42 @@ class Instance(_Strict):
         ]
 
 
+def derived_capabilities(instance: Instance, container_locations: frozenset[str]) -> set[str]:
+    """The capabilities an instance measures by what it is: honesty (infeasible), memory (earlier
+    tasks), recovery (perturbations), partial observation (look_around shows less than the house),
+    long horizon (an optimal plan of `LONG_HORIZON_STEPS` or more) and containers (an object starts
+    or must end at a location of `container_locations`, where furniture opens)."""
+    tags: set[str] = set()
+    if not instance.feasible:
+        tags.add("honesty")
+    if instance.prelude:
+        tags.add("memory")
+    if instance.perturbations:
+        tags.add("recovery")
+    if instance.observe in ("location", "room"):
+        tags.add("partial_observation")
+    if instance.optimal_steps >= LONG_HORIZON_STEPS:
+        tags.add("long_horizon")
+    if _locations_touched(instance) & container_locations:
+        tags.add("containers")
+    return tags
+
+
+def _locations_touched(instance: Instance) -> set[str]:
+    """The locations the task touches: where the objects its success names start, and the locations
+    its success conditions name (a bystander resting in a container touches nothing)."""
+    objects: set[str] = set()
+    places: set[str] = set()
+    for condition in instance.success:
+        objects |= set(condition.objects_named())
+        data = condition.model_dump()
+        if isinstance(data.get("location"), str):
+            places.add(data["location"])
+        places |= {p[0] for p in data.get("positions") or []}
+        places |= {t[1] for t in data.get("targets") or []}
+    return places | {instance.start[o].location for o in objects if o in instance.start}
+
+
 class SplitSpec(_Strict):
     """How a split is generated."""
 
@@ -293,8 +140,13 @@ class Suite(_Strict):
     name: Id
     description: str = ""
     families: list[Id] = Field(min_length=1)
-    scenes: list[str] = Field(min_length=1, description="scene names (assets/scenes/NAME.yaml)")
+    scenes: list[str] = Field(
+        min_length=1,
+        description="scene names (assets/scenes/NAME.yaml, assets/scenes/generated/NAME.yaml), or patterns such "
+        "as 'house-*' over their names",
+    )
     splits: dict[Id, SplitSpec] = Field(min_length=1)
+    tagged: bool = Field(default=False, description="instances carry capability tags (robocog-v1 predates them: false)")
 
     @model_validator(mode="after")
     def _unique(self) -> Suite:
@@ -302,6 +154,21 @@ class Suite(_Strict):
             if len(set(names)) != len(names):
                 raise ValueError(f"{what}: listed twice: {sorted({n for n in names if names.count(n) > 1})}")
         return self
+
+    def scene_names(self) -> list[str]:
+        """The suite's scenes, each pattern ('house-*') expanded over the shipped and generated scenes
+        (sorted), in the manifest's order; a `ConfigError` names a name or pattern that matches none."""
+        known = scene_names() + generated_scene_names()
+        out: list[str] = []
+        for entry in self.scenes:
+            if not any(c in entry for c in "*?["):
+                out += [entry] if entry not in out else []  # a name or a path: `scene_path` checks it
+                continue
+            matched = sorted(n for n in known if fnmatch.fnmatchcase(n, entry))
+            if not matched:
+                raise ConfigError(f"suite {self.name}: scenes: the pattern {entry!r} matches no shipped scene")
+            out += [n for n in matched if n not in out]
+        return out
 
 
 def suite_dir(name: str) -> Path:
@@ -341,9 +208,20 @@ def parse_instances(text: str, where: str) -> list[Instance]:
     return out
 
 
+#: The instance fields a split carries only when they are set (robocog-v1 predates them).
+_OPTIONAL_FIELDS = ("capabilities", "observe", "perturbations")
+
+
 def dump_instances(instances: list[Instance]) -> str:
-    """Instances as JSONL: one compact line each, keys in schema order (byte-stable)."""
-    return "".join(i.model_dump_json(exclude_defaults=False) + "\n" for i in instances)
+    """Instances as JSONL: one compact line each, keys in schema order (byte-stable); the fields
+    robocog-v1 predates only when set, and a perturbation's fields only when not at their default."""
+    lines = []
+    for i in instances:
+        data = i.model_dump(mode="json", exclude={f for f in _OPTIONAL_FIELDS if not getattr(i, f)})
+        if i.perturbations:
+            data["perturbations"] = [p.model_dump(mode="json", exclude_defaults=True) for p in i.perturbations]
+        lines.append(json.dumps(data, separators=(",", ":"), ensure_ascii=False) + "\n")
+    return "".join(lines)
 
 
 @cache

@@ -40,7 +40,8 @@ def _table(rows: Iterable[tuple[str, ...]]) -> str:
 def main(args: argparse.Namespace) -> int:
     """`robocog suite generate | list`."""
     from robocog.agent.suitegen.generator import generate  # the families, the symbolic world: only here
-    from robocog.shared.suite import DEFAULT_SUITE, dump_instances, load_families, load_split, load_suite, suite_dir
+    from robocog.shared.family_files import load_families
+    from robocog.shared.suite import DEFAULT_SUITE, dump_instances, load_split, load_suite, suite_dir
 
     args.suite = args.suite or DEFAULT_SUITE
     suite = load_suite(args.suite)
@@ -71,6 +72,7 @@ def main(args: argparse.Namespace) -> int:
         f = families[fid]
         counts = [str(sum(i.family == fid for i in insts)) for insts in splits.values()]
         rows.append((fid, ",".join(v.id for v in f.variants), *counts, f.variants[0].example))
-    print(f"{suite.name}: {suite.description.strip()}\nscenes: {', '.join(suite.scenes)}\n")
+    scenes = f"{', '.join(suite.scenes)} ({len(suite.scene_names())} scenes)"
+    print(f"{suite.name}: {suite.description.strip()}\nscenes: {scenes}\n")
     print(_table(rows))
     return 0

@@ -21,9 +21,9 @@ from robocog.agent.families.registry import (
     prompt_readers,
     registered_draws,
 )
-from robocog.shared.suite import FAMILIES_DIR, Family
-from robocog.shared.suite import load_families as _load_families
-from robocog.shared.suite import load_family as _load_family
+from robocog.shared.family_files import FAMILIES_DIR, Family
+from robocog.shared.family_files import load_families as _load_families
+from robocog.shared.family_files import load_family as _load_family
 
 for _module in sorted(m.name for m in pkgutil.iter_modules(__path__)):
     importlib.import_module(f"{__name__}.{_module}")

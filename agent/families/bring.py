@@ -13,7 +13,7 @@ from typing import Any
 from robocog.agent.families.reading import ALL_ITEMS, FirstLook, Request, destination_split, objects_named
 from robocog.agent.families.registry import draw, reader
 from robocog.agent.symbolic.world import SceneNames, Where
-from robocog.shared.suite import Variant
+from robocog.shared.family_files import Variant
 
 #: The verbs that put things away rather than bring them (the plan note's label).
 _PUTTING = {"put", "place", "set", "tidy", "clear"}

@@ -10,7 +10,7 @@ from robocog.agent.families.bring import other_location
 from robocog.agent.families.put_away import FURNITURE_EXAMPLE, choose_furniture
 from robocog.agent.families.registry import draw
 from robocog.agent.symbolic.world import SceneNames, Where
-from robocog.shared.suite import Variant
+from robocog.shared.family_files import Variant
 
 
 @draw("overfill_furniture", gives={"items": ["mug", "box"], **FURNITURE_EXAMPLE})

@@ -11,7 +11,7 @@ from robocog.agent.families.bring import item_elsewhere
 from robocog.agent.families.reading import FirstLook, Goal, Request, object_phrase
 from robocog.agent.families.registry import draw, reader
 from robocog.agent.symbolic.world import SceneNames, Where
-from robocog.shared.suite import Variant
+from robocog.shared.family_files import Variant
 
 
 @draw(

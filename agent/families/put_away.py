@@ -9,7 +9,7 @@ from typing import Any
 
 from robocog.agent.families.registry import draw
 from robocog.agent.symbolic.world import SceneNames, Where
-from robocog.shared.suite import Variant
+from robocog.shared.family_files import Variant
 from robocog.shared.tasks import Spot
 
 #: A piece of furniture's parameters, as the draws that name one give them.

@@ -10,7 +10,7 @@ from typing import Any
 from robocog.agent.families.reading import FirstLook, Goal, Request, destination_split, objects_named
 from robocog.agent.families.registry import draw, reader
 from robocog.agent.symbolic.world import SceneNames, Where
-from robocog.shared.suite import Variant
+from robocog.shared.family_files import Variant
 
 
 @draw(

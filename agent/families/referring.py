@@ -10,7 +10,7 @@ from typing import Any
 from robocog.agent.families.bring import item_elsewhere, other_location
 from robocog.agent.families.registry import draw
 from robocog.agent.symbolic.world import SceneNames, Where
-from robocog.shared.suite import Variant
+from robocog.shared.family_files import Variant
 
 
 def noun_phrase(description: str) -> str:

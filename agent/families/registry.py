@@ -51,7 +51,7 @@ from typing import Any, TypeVar
 
 from robocog.agent.families.reading import FirstLook, Request
 from robocog.agent.symbolic.world import SceneNames, Where
-from robocog.shared.suite import DrawSpec, Takes, Variant
+from robocog.shared.family_files import DrawSpec, Takes, Variant
 
 #: A draw: from the seeded generator, the scene's names, where every object starts and the variant,
 #: the variant's parameters (each one its `DrawSpec` gives), or None when this start cannot pose it.

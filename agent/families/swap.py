@@ -10,7 +10,7 @@ from typing import Any
 from robocog.agent.families.reading import FirstLook, Goal, Request, clean, object_phrase
 from robocog.agent.families.registry import draw, reader
 from robocog.agent.symbolic.world import SceneNames, Where
-from robocog.shared.suite import Variant
+from robocog.shared.family_files import Variant
 
 
 @draw("pair", gives={"a": "mug", "b": "cube"})

@@ -54,6 +54,7 @@ class SuiteRun:
             "instance": instance.id,
             "feasible": instance.feasible,
             "optimal_steps": instance.optimal_steps,
+            "capabilities": list(instance.capabilities),
         }
 
     async def set_up(

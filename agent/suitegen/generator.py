@@ -25,16 +25,10 @@ from robocog.agent.families import draw_function, load_families
 from robocog.agent.symbolic.plans import optimal_plan, solved, steps_after
 from robocog.agent.symbolic.world import SceneNames, Spot, Where
 from robocog.shared.errors import ConfigError
+from robocog.shared.family_files import CAPABILITIES, Family, render_prompt, render_success
+from robocog.shared.perturbations import Perturbation
 from robocog.shared.scene_files import load_scene, scene_path
-from robocog.shared.suite import (
-    Family,
-    Instance,
-    StartPlacement,
-    Step,
-    Suite,
-    render_prompt,
-    render_success,
-)
+from robocog.shared.suite import Instance, StartPlacement, Step, Suite, derived_capabilities
 
 #: Attempts at one instance before the generator gives up on it (a family no scene can pose).
 MAX_ATTEMPTS = 200
@@ -56,15 +50,26 @@ def random_start(rng: random.Random, world: SceneNames) -> dict[str, Spot]:
 
 
 def make_instance(
-    family: Family, world: SceneNames, rng: random.Random, *, instance_id: str, split: str, seed: int
+    family: Family,
+    world: SceneNames,
+    rng: random.Random,
+    *,
+    instance_id: str,
+    split: str,
+    seed: int,
+    tagged: bool = False,
 ) -> Instance | None:
-    """One instance of `family` in `world`, or None when this draw does not make a valid one."""
+    """One instance of `family` in `world`, or None when this draw does not make a valid one. A draw
+    that gives `perturbations` (a list of `Perturbation` fields) gives what goes wrong during the task,
+    not a template parameter. With `tagged`, the instance carries its capability tags: its family's,
+    its variant's and those it earns by what it is (`derived_capabilities`)."""
     variant = rng.choice(family.variants)
     start = random_start(rng, world)
     where: Where = dict(start)
     params = draw_function(variant.draw)(rng, world, where, variant)
     if params is None:
         return None
+    perturbations = [Perturbation.model_validate(p) for p in params.pop("perturbations", [])]
     success = render_success(variant.success, params)
     prelude = [
         Step(prompt=render_prompt(s.prompt, params), success=render_success(s.success, params)) for s in variant.prelude
@@ -82,7 +87,7 @@ def make_instance(
         optimal = len(found[0])
     else:
         optimal = 0
-    return Instance(
+    instance = Instance(
         id=instance_id,
         split=split,
         family=family.id,
@@ -96,7 +101,14 @@ def make_instance(
         feasible=variant.feasible,
         optimal_steps=optimal,
         prelude=prelude,
+        observe=variant.observe,
+        perturbations=perturbations,
     )
+    if not tagged:
+        return instance
+    containers = frozenset(c.location for c in world.scene.containers)
+    tags = {*family.capabilities, *variant.capabilities, *derived_capabilities(instance, containers)}
+    return instance.model_copy(update={"capabilities": [c for c in CAPABILITIES if c in tags]})
 
 
 def generate(suite: Suite, split: str, *, seed: int | None = None, per_family: int | None = None) -> list[Instance]:
@@ -107,7 +119,7 @@ def generate(suite: Suite, split: str, *, seed: int | None = None, per_family: i
     seed = spec.seed if seed is None else seed
     count = spec.per_family if per_family is None else per_family
     families = load_families()
-    worlds = [SceneNames(load_scene(scene_path(s))) for s in suite.scenes]
+    worlds = [SceneNames(load_scene(scene_path(s))) for s in suite.scene_names()]
     out: list[Instance] = []
     seen: set[tuple[str, str, str]] = set()
     for family_id in suite.families:
@@ -124,6 +136,7 @@ def generate(suite: Suite, split: str, *, seed: int | None = None, per_family: i
                     instance_id=instance_id,
                     split=split,
                     seed=derived_seed(suite.name, split, seed, family_id, n),
+                    tagged=suite.tagged,
                 )
                 if instance is None:
                     continue

@@ -17,7 +17,7 @@ def look_around(robot: RobotSession) -> LookAroundResult:
     world = robot.world
     placements = world.placements()
     here, holding = world.robot_location(), world.holding
-    observed = world.observed_locations(robot.observe)
+    observed = world.observed_locations(robot.observing)
     shown = [p for p in placements.values() if p.state != "held" and not world.hidden(p)]
     views = [
         LocationView(
@@ -40,8 +40,8 @@ def look_around(robot: RobotSession) -> LookAroundResult:
     visible = next(v for v in views if v.name == here)
     seen = ", ".join(visible.objects) or "no objects"
     message = f"The robot is at {here}, {hand}. Here: {seen}."
-    if robot.observe != "house":
-        scope = "this location" if robot.observe == "location" or len(observed) == 1 else "this room"
+    if robot.observing != "house":
+        scope = "this location" if robot.observing == "location" or len(observed) == 1 else "this room"
         message += f" Only {scope} can be seen from here; move elsewhere to see more."
     return LookAroundResult(
         status="success",
@@ -50,7 +50,7 @@ def look_around(robot: RobotSession) -> LookAroundResult:
         holding=holding,
         locations=views,
         furniture=furniture,
-        observed=None if robot.observe == "house" else robot.observe,
+        observed=None if robot.observing == "house" else robot.observing,
     )
 
 

@@ -10,7 +10,8 @@ import pytest
 
 from robocog.agent.families import load_families, load_family
 from robocog.shared.errors import ConfigError
-from robocog.shared.suite import load_split, load_suite, parse_instances, render_prompt
+from robocog.shared.family_files import render_prompt
+from robocog.shared.suite import load_split, load_suite, parse_instances
 
 SUITE = load_suite()
 SPLITS = {split: load_split(SUITE.name, split) for split in SUITE.splits}

@@ -25,9 +25,9 @@ from robocog.agent.families.reading import Request
 from robocog.agent.policies.belief import Belief, Goal, understand
 from robocog.agent.symbolic.world import SceneNames
 from robocog.shared.errors import ConfigError
+from robocog.shared.family_files import FAMILIES_DIR
+from robocog.shared.family_files import load_family as load_family_unchecked
 from robocog.shared.scene_files import load_scene, scene_path
-from robocog.shared.suite import FAMILIES_DIR
-from robocog.shared.suite import load_family as load_family_unchecked
 
 FAMILIES = load_families()
 VARIANTS = [(f.id, v) for f in FAMILIES.values() for v in f.variants]
@@ -148,7 +148,7 @@ from typing import Any
 from robocog.agent.families.reading import FirstLook, Goal, Request, resolve_object
 from robocog.agent.families.registry import draw, reader
 from robocog.agent.symbolic.world import SceneNames, Where
-from robocog.shared.suite import Variant
+from robocog.shared.family_files import Variant
 
 
 @draw("one_item", gives={"item": "mug"})
