@@ -149,6 +149,9 @@ class Variant(_Strict):
     )
     example: str = Field(default="", description="an instance's prompt, for the README and `robocog suite list`")
     capabilities: list[Capability] = Field(default=[], description="capability tags of this variant's instances")
+    min_optimal_steps: int | None = Field(
+        default=None, ge=1, description="the generator rejects an instance whose optimal plan is shorter"
+    )
     observe: Observe | None = Field(
         default=None, description="what look_around reveals in this variant's instances (default: the study's)"
     )

@@ -75,4 +75,26 @@ def main(args: argparse.Namespace) -> int:
     scenes = f"{', '.join(suite.scenes)} ({len(suite.scene_names())} scenes)"
     print(f"{suite.name}: {suite.description.strip()}\nscenes: {scenes}\n")
     print(_table(rows))
+    _print_stats(splits)
     return 0
+
+
+def _print_stats(splits: dict[str, list[Any]]) -> None:
+    """Instances per capability (a tagged suite's) and optimal plan lengths per family, per split."""
+    from robocog.agent.suitegen import stats
+
+    everything = [i for insts in splits.values() for i in insts]
+    capabilities = stats.per_capability(everything)
+    if capabilities:
+        rows = [("capability", *splits)]
+        rows += [(c, *(str(stats.per_capability(insts).get(c, 0)) for insts in splits.values())) for c in capabilities]
+        print("\n" + _table(rows))
+    lengths = {name: stats.plan_lengths(insts) for name, insts in splits.items()}
+    if everything:
+        families = list(stats.plan_lengths(everything))
+        rows = [("optimal plan (actions)", *(f"{s}: min / median / max" for s in splits))]
+        for f in families:
+            cells = [lengths[s].get(f) for s in splits]
+            rows.append((f, *(f"{c.low} / {c.median:g} / {c.high}" if c else "-" for c in cells)))
+        scenes = len(stats.scenes_used(everything))
+        print("\n" + _table(rows) + f"\n\n{len(everything)} instances over {scenes} scenes")

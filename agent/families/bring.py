@@ -20,8 +20,8 @@ _PUTTING = {"put", "place", "set", "tidy", "clear"}
 
 
 def other_location(rng: random.Random, world: SceneNames, location: str | None) -> str | None:
-    """A location with place positions other than `location`."""
-    options = sorted({loc for loc, _ in world.spots} - {location or ""})
+    """A location with place positions in the open (not inside a container), other than `location`."""
+    options = sorted({loc for loc, _ in world.open_spots} - {location or ""})
     return rng.choice(options) if options else None
 
 

@@ -21,6 +21,7 @@ Today's order, which a test holds:
 |-------|-----------|-----------------------------------------------------|-----------------------------------|
 | 10    | memory    | "put / bring / take / move / return X back"         | memory (where memory says X was)  |
 | 20    | swap      | "swap X and Y"                                      | swap                              |
+| 25    | long_hor. | "tidy the house: X on P, Y on Q, ..."               | long_horizon                      |
 | 30    | rearrange | "(re)arrange ...: X on P, Y on Q"                   | rearrange                         |
 | 40    | bring     | "put / place / ... / bring / take / move / get ..." | bring, put_away, referring,       |
 |       |           |                                                     | infeasible                        |

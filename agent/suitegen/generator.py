@@ -44,8 +44,9 @@ def derived_seed(*parts: object) -> int:
 
 
 def random_start(rng: random.Random, world: SceneNames) -> dict[str, Spot]:
-    """Every graspable object on its own place position, drawn at random (scene order)."""
-    spots = rng.sample(world.spots, len(world.graspable))
+    """Every graspable object on its own place position in the open (not inside a container: only a
+    family about containers puts things there), drawn at random (scene order)."""
+    spots = rng.sample(world.open_spots, len(world.graspable))
     return dict(zip(world.graspable, spots, strict=True))
 
 
@@ -85,6 +86,8 @@ def make_instance(
         if found is None:
             return None
         optimal = len(found[0])
+        if optimal < (variant.min_optimal_steps or 0):
+            return None
     else:
         optimal = 0
     instance = Instance(

@@ -66,10 +66,14 @@ def optimal_plan(
     def full(state: State) -> Where:
         return {**fixed, **dict(zip(movable, state[2], strict=True))}
 
+    # The one location each object's targets lie at, where they share one (a place there is needed).
+    target_at = {o: next(iter(locs)) for o, allowed in targets.items() if len(locs := {s[0] for s in allowed if s}) == 1}
+
     def estimate(state: State) -> Cost:
         # Admissible and consistent: an object off its own targets needs a place, and a grab unless
-        # it is held, and the robot must go to each other location where such an object lies; every
-        # action costs one and lowers the estimate by one at most.
+        # it is held, and the robot must go to each other location where such an object lies or
+        # where its targets all lie; every action costs one and lowers the estimate by one at most
+        # (a move_to leaves one location, which may count again, and reaches another).
         loc, held, spots_now = state
         cost = 0
         away: set[str] = set()
@@ -78,9 +82,11 @@ def optimal_plan(
             now = spots_now[i] if i is not None else where.get(o)
             if now not in allowed:
                 cost += 1 if held == o else 2
-                if now is not None and now[0] != loc:
+                if now is not None:
                     away.add(now[0])
-        return (cost + len(away),)
+                if o in target_at:
+                    away.add(target_at[o])
+        return (cost + len(away - {loc}),)
 
     def successors(state: State) -> Iterator[tuple[Action, State, Cost]]:
         loc, held, spots_now = state
@@ -103,7 +109,7 @@ def optimal_plan(
         return state[1] is None and solved(success, full(state), baseline)
 
     start: State = (robot, None, tuple(where[o] for o in movable))
-    found = astar(Problem(start, successors, is_goal, estimate), action_limit=limit)
+    found = astar(Problem(start, successors, is_goal, estimate), action_limit=limit, deeper_first=True)
     if found is None:
         return None
     return found.actions, full(found.state), found.state[0]

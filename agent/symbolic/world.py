@@ -31,6 +31,19 @@ class SceneNames:
         return [(p.location, p.name) for p in self.scene.place_positions]
 
     @property
+    def inside_spots(self) -> list[Spot]:
+        """The place positions inside furniture that opens (a container's interior), in scene order."""
+        containers = {c.name for c in self.scene.containers}
+        return [(p.location, p.name) for p in self.scene.place_positions if p.support in containers]
+
+    @property
+    def open_spots(self) -> list[Spot]:
+        """The place positions in the open (not inside a container), in scene order: where a random
+        start puts objects, so only a family about containers puts any inside one."""
+        inside = set(self.inside_spots)
+        return [s for s in self.spots if s not in inside]
+
+    @property
     def graspable(self) -> list[str]:
         """The objects the robot can grasp, in scene order."""
         return [o.name for o in self.scene.objects if o.graspable]
@@ -39,6 +52,14 @@ class SceneNames:
     def ungraspable(self) -> list[str]:
         """The objects it cannot grasp (fixtures such as a TV), in scene order."""
         return [o.name for o in self.scene.objects if not o.graspable]
+
+    def room_of(self, location: str) -> str:
+        """The room whose floor holds `location`'s point (the first in scene order; "" when none)."""
+        point = self.scene.location(location)
+        for room in self.scene.rooms:
+            if room.x[0] <= point.x <= room.x[1] and room.y[0] <= point.y <= room.y[1]:
+                return room.name
+        return ""
 
     def spots_at(self, location: str) -> list[Spot]:
         """The place positions of `location`, in scene order."""

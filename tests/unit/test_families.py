@@ -112,7 +112,7 @@ def test_every_family_file_has_its_module() -> None:
 
 def test_the_planner_asks_the_readers_in_the_documented_order() -> None:
     order = [(r.order, r.family) for r in prompt_readers()]
-    assert order == [(10, "memory"), (20, "swap"), (30, "rearrange"), (40, "bring")]
+    assert order == [(10, "memory"), (20, "swap"), (25, "long_horizon"), (30, "rearrange"), (40, "bring")]
     # "put the mug back" is a transport prompt too: the memory family's reader is asked first.
     assert [r.family for r in prompt_readers() if r.pattern.match("put the mug back where it was")] == [
         "memory",
