@@ -26,8 +26,8 @@ from robocog.shared.family_files import Variant
 )
 def tidy_rooms(rng: random.Random, world: SceneNames, where: Where, v: Variant) -> dict[str, Any] | None:
     """`count` items (as many as the scene has, up to its most), each to a free place position in the
-    open (not inside a container) of a room other than the one it starts in, no two to the same position and none to a position a
-    bystander holds; None when the scene has too few items or rooms."""
+    open (not inside a container) of a room other than the one it starts in, no two to the same
+    position and none to a position a bystander holds; None when the scene has too few items or rooms."""
     assert v.count is not None
     most = min(v.count[1], len(world.graspable))
     if most < v.count[0] or len(world.scene.rooms) < 2:

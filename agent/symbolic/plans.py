@@ -67,7 +67,10 @@ def optimal_plan(
         return {**fixed, **dict(zip(movable, state[2], strict=True))}
 
     # The one location each object's targets lie at, where they share one (a place there is needed).
-    target_at = {o: next(iter(locs)) for o, allowed in targets.items() if len(locs := {s[0] for s in allowed if s}) == 1}
+    target_at: dict[str, str] = {}
+    for o, allowed in targets.items():
+        if len(locations_of := {s[0] for s in allowed if s}) == 1:
+            target_at[o] = locations_of.pop()
 
     def estimate(state: State) -> Cost:
         # Admissible and consistent: an object off its own targets needs a place, and a grab unless
