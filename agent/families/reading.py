@@ -84,26 +84,57 @@ _LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 
 @functools.cache
 def scene_descriptions() -> dict[str, tuple[str, ...]]:
-    """Object name -> the descriptions the scenes in assets/scenes give it (world knowledge the
-    planner, as the suite's oracle, may use to resolve "the drinking vessel")."""
+    """Object name -> the descriptions the hand-made scenes in assets/scenes give it (world knowledge
+    the planner, as the suite's oracle, may use to resolve "the drinking vessel")."""
     found: dict[str, list[str]] = {}
-    for path in sorted((ASSETS_DIR / "scenes").glob("*.yaml")):
+    for _, objects in _scene_catalogues(generated=False):
+        for name, said in objects.items():
+            found.setdefault(name, []).extend(said)
+    return {name: tuple(dict.fromkeys(said)) for name, said in found.items()}
+
+
+@functools.cache
+def _scene_catalogues(*, generated: bool) -> tuple[tuple[frozenset[str], dict[str, tuple[str, ...]]], ...]:
+    """Per scene file (the hand-made ones, or the generated houses): its location names, and each
+    object's descriptions (cleaned)."""
+    folder = ASSETS_DIR / "scenes" / ("generated" if generated else "")
+    out = []
+    for path in sorted(folder.glob("*.yaml")):
         try:
             data = yaml.load(path.read_text(encoding="utf-8"), Loader=_LOADER)
         except (OSError, UnicodeDecodeError, yaml.YAMLError):
             continue
-        objects = data.get("objects") if isinstance(data, dict) else None
-        for obj in objects if isinstance(objects, list) else []:
-            if isinstance(obj, dict) and isinstance(obj.get("name"), str):
-                said = obj.get("descriptions") or []
-                found.setdefault(obj["name"], []).extend(str(d) for d in said if isinstance(said, list))
-    return {name: tuple(dict.fromkeys(clean(d) for d in said)) for name, said in found.items()}
+        if not isinstance(data, dict):
+            continue
+        objects = data.get("objects") if isinstance(data.get("objects"), list) else []
+        locations = data.get("locations") if isinstance(data.get("locations"), list) else []
+        said = {
+            o["name"]: tuple(dict.fromkeys(clean(str(d)) for d in o.get("descriptions") or []))
+            for o in objects
+            if isinstance(o, dict) and isinstance(o.get("name"), str)
+        }
+        names = frozenset(
+            loc["name"] for loc in locations if isinstance(loc, dict) and isinstance(loc.get("name"), str)
+        )
+        out.append((names, said))
+    return tuple(out)
 
 
-def _called(obj: str) -> set[str]:
+def descriptions_in(first: FirstLook) -> dict[str, tuple[str, ...]]:
+    """The descriptions of the house the first look shows: a generated house's own (its colours are
+    its own: "the red thing" is another object in another house), found by its location names; the
+    hand-made scenes' otherwise."""
+    seen = set(first.neighbours)
+    houses = [said for names, said in _scene_catalogues(generated=True) if seen and seen <= names]
+    if len(houses) == 1:
+        return houses[0]
+    return scene_descriptions()
+
+
+def _called(obj: str, descriptions: Mapping[str, tuple[str, ...]]) -> set[str]:
     """What an object may be called: its name (with spaces for underscores) and its descriptions."""
     name = obj.lower()
-    return {name, name.replace("_", " "), *scene_descriptions().get(obj, ())}
+    return {name, name.replace("_", " "), *descriptions.get(obj, ())}
 
 
 def _match_location(text: str, locations: list[str]) -> str | None:
@@ -151,7 +182,8 @@ def resolve_object(phrase: str, first: FirstLook) -> tuple[str | None, str | Non
     if relation:
         return _by_relation(relation.group(1), first)
     singular = text[:-1] if text.endswith("s") and not text.endswith("ss") else text
-    hits = [o for o in first.objects() if {text, singular} & _called(o)]
+    descriptions = descriptions_in(first)
+    hits = [o for o in first.objects() if {text, singular} & _called(o, descriptions)]
     if len(hits) == 1:
         return hits[0], None
     if hits:

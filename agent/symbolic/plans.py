@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
 
+from robocog.agent.symbolic.bounds import carrying_drives
 from robocog.agent.symbolic.search import Cost, Problem, astar
 from robocog.agent.symbolic.world import Action, SceneNames, Spot, Where
 from robocog.shared.suite import Step
@@ -73,23 +74,28 @@ def optimal_plan(
             target_at[o] = locations_of.pop()
 
     def estimate(state: State) -> Cost:
-        # Admissible and consistent: an object off its own targets needs a place, and a grab unless
-        # it is held, and the robot must go to each other location where such an object lies or
-        # where its targets all lie; every action costs one and lowers the estimate by one at most
-        # (a move_to leaves one location, which may count again, and reaches another).
+        # Admissible: an object off its own targets needs a place, and a grab unless it is held; the
+        # robot must reach every other location where such an object lies or where its targets all
+        # lie, and carry each object whose targets all lie elsewhere there (`carrying_drives`).
+        # Every action costs one.
         loc, held, spots_now = state
         cost = 0
         away: set[str] = set()
+        edges: list[tuple[str, str]] = []
         for o, allowed in targets.items():
             i = index.get(o)
             now = spots_now[i] if i is not None else where.get(o)
-            if now not in allowed:
-                cost += 1 if held == o else 2
-                if now is not None:
-                    away.add(now[0])
-                if o in target_at:
-                    away.add(target_at[o])
-        return (cost + len(away - {loc}),)
+            if now in allowed:
+                continue
+            cost += 1 if held == o else 2
+            at = loc if now is None else now[0]
+            if now is not None:
+                away.add(at)
+            goal = target_at.get(o)
+            if goal is not None:
+                away.add(goal)
+                edges.append((at, goal))
+        return (cost + max(len(away - {loc}), carrying_drives(edges, loc)),)
 
     def successors(state: State) -> Iterator[tuple[Action, State, Cost]]:
         loc, held, spots_now = state

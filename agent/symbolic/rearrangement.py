@@ -16,15 +16,18 @@ conditions (`robocog.shared.tasks.rests_at`: an at_location or at_position condi
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Protocol
 
+from robocog.agent.symbolic.bounds import carrying_drives
 from robocog.agent.symbolic.search import Cost, Problem, astar
 from robocog.shared.tasks import rests_at
 
-#: The search gives up after expanding this many states (the planner then fails honestly).
+#: The search by (actions, hops) gives up after expanding this many states; the search by actions
+#: alone then gets `FEWEST_ACTIONS_LIMIT` (and when it gives up too, the planner fails honestly).
 SEARCH_LIMIT = 50_000
+FEWEST_ACTIONS_LIMIT = 400_000
 #: Map hops charged for a move between locations with no known path.
 NO_PATH_HOPS = 99
 
@@ -104,17 +107,19 @@ class Rearrangement:
 
     def estimate(self, state: State) -> Cost:
         """A lower bound on what is left: (actions, map hops). Actions: a grab and a place per object
-        out of place, and a drive to every location still to visit (at least one per object that must
-        change location); hops: the drive to the farthest of those locations."""
+        out of place, and the drives: to every location still to visit, and those that carrying the
+        objects with goals elsewhere needs (`robocog.agent.symbolic.bounds`); hops: the drive to the
+        farthest of those locations."""
         here, held, spots = state
         named = self.named
-        actions, drives, visit = 2 * sum(self._to_clear(state, loc) for loc in self.anywhere), 0, set()
+        actions, visit = 2 * sum(self._to_clear(state, loc) for loc in self.anywhere), set()
+        edges: list[tuple[str, str]] = []  # (where it lies, where it must go) per object to carry
         for i, (spot, goal) in enumerate(zip(spots, self.goals, strict=True)):
             if held == i:
                 actions += 1
                 if goal is not None:
                     visit.add(goal.location)
-                    drives += goal.location != here
+                    edges.append((here, goal.location))
             elif goal is None:
                 if spot in named:
                     actions += 2
@@ -122,9 +127,10 @@ class Rearrangement:
             elif not satisfied(spot, goal):
                 actions += 2
                 visit |= {spot[0], goal.location}
-                drives += spot[0] != goal.location
+                edges.append((spot[0], goal.location))
         hops = self.hops[here]
-        return actions + max(drives, len(visit - {here})), max((hops.get(loc, 0) for loc in visit), default=0)
+        moves = max(carrying_drives(edges, here), len(visit - {here}))
+        return actions + moves, max((hops.get(loc, 0) for loc in visit), default=0)
 
     def _to_clear(self, state: State, location: str) -> int:
         """How many objects with no goal must at least leave `location` to make room for the objects
@@ -218,6 +224,9 @@ def optimal_plan(belief: Believed, goals: Mapping[str, Target]) -> list[Action] 
     those, the plan driving the fewest map hops); None when there is none (or the search gives up).
     Objects that no goal names move only to clear a position a goal names.
 
+    Fewest actions always; fewest hops among them where the search can rank every tie within
+    `SEARCH_LIMIT` expansions (else the first plan of the fewest actions it finds).
+
     The planner asks again every turn, from the state its last action led to: a plan found once is
     remembered for each state along it (the rest of an optimal plan is optimal from there), so an
     episode searches once, not once a turn."""
@@ -234,10 +243,29 @@ def optimal_plan(belief: Believed, goals: Mapping[str, Target]) -> list[Action] 
         expansion_limit=SEARCH_LIMIT,
         deeper_first=True,
     )
+    if result is None:  # too many plans tie on actions to rank them all by hops (a whole house to tidy)
+        result = astar(
+            Problem(start, _actions_only(problem.successors), problem.done, lambda s: (problem.estimate(s)[0], 0)),
+            expansion_limit=FEWEST_ACTIONS_LIMIT,
+            deeper_first=True,
+        )
     if result is None:
         return None
     _remember(key, problem, start, result.actions)
     return result.actions
+
+
+def _actions_only(
+    successors: Callable[[State], Iterator[tuple[Action, State, Cost]]],
+) -> Callable[[State], Iterator[tuple[Action, State, Cost]]]:
+    """The same successors with the map hops left out of their cost: the search that still finds the
+    fewest actions when ranking the ties among them by hops would search too long."""
+
+    def fewest_actions(state: State) -> Iterator[tuple[Action, State, Cost]]:
+        for action, nxt, cost in successors(state):
+            yield action, nxt, (cost[0], 0)
+
+    return fewest_actions
 
 
 #: Plans found, by (problem, state): what is left of a plan from each state along it.

@@ -22,7 +22,7 @@ from robocog.agent.client.connection import Robot, ServerSpec, connect
 from robocog.agent.client.loop import run_episode
 from robocog.agent.client.settings import AgentSettings
 from robocog.agent.client.trace_sinks import Trace
-from robocog.shared.suite import Instance, load_split
+from robocog.shared.suite import DEFAULT_SUITE, Instance, load_split
 from robocog.shared.trace import ToolCall
 
 ROBOT_ACTIONS = {"move_to", "grab", "place"}
@@ -61,10 +61,16 @@ async def _episode(robot: Robot, prompt: str, model: str, params: dict[str, Any]
 
 
 async def run_instance(
-    robot: Robot, instance: Instance, model: str = "scripted/planner", params: dict[str, Any] | None = None
+    robot: Robot,
+    instance: Instance,
+    model: str = "scripted/planner",
+    params: dict[str, Any] | None = None,
+    *,
+    suite: str = DEFAULT_SUITE,
 ) -> Outcome:
-    """Run `instance` (its earlier tasks first) with `model` on `robot` (an eval-profile server)."""
-    await _call(robot, "reset_world", {"instance": instance.id, "memory_namespace": f"oracle-{instance.id}"})
+    """Run `instance` of `suite` (its earlier tasks first) with `model` on `robot` (an eval-profile server)."""
+    reset = {"instance": instance.id, "suite": suite, "memory_namespace": f"oracle-{instance.id}"}
+    await _call(robot, "reset_world", reset)
     await _call(robot, "clear_memory", {})
     for i, step in enumerate(instance.prelude, 1):
         await _call(robot, "begin_task", {"task_id": f"{instance.id}-pre{i}"})
@@ -78,8 +84,8 @@ async def run_instance(
     )
 
 
-async def run_split(instances: list[Instance], workers: int = 2) -> list[Outcome]:
-    """Every instance, on `workers` server processes (a fresh data directory each)."""
+async def run_split(instances: list[Instance], workers: int = 2, *, suite: str = DEFAULT_SUITE) -> list[Outcome]:
+    """Every instance of `suite`, on `workers` server processes (a fresh data directory each)."""
     queue: asyncio.Queue[Instance] = asyncio.Queue()
     for instance in instances:
         queue.put_nowait(instance)
@@ -88,7 +94,7 @@ async def run_split(instances: list[Instance], workers: int = 2) -> list[Outcome
     async def worker(data: Path) -> None:
         async with connect(ServerSpec(extra_args=["--profile", "eval", "--data-dir", str(data)])) as robot:
             while not queue.empty():
-                outcomes.append(await run_instance(robot, queue.get_nowait()))
+                outcomes.append(await run_instance(robot, queue.get_nowait(), suite=suite))
 
     with tempfile.TemporaryDirectory() as tmp:
         async with asyncio.TaskGroup() as tg:

@@ -157,8 +157,10 @@ def test_the_planner_reads_every_prompt_of_both_splits_as_before(
             for prompt in [*(s.prompt for s in instance.prelude), instance.prompt]:
                 understand(prompt, first, set())
     reading.scene_descriptions.cache_clear()
+    reading._scene_catalogues.cache_clear()
     reading.scene_descriptions()
     reading.scene_descriptions.cache_clear()
+    reading._scene_catalogues.cache_clear()
     assert len(set(seen)) > 200
     for text in sorted(set(seen)):
         assert name_key(text) == old_clean(text), text
