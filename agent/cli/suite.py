@@ -25,6 +25,9 @@ def add_parser(commands: Any) -> argparse.ArgumentParser:
     gen.add_argument("--seed", type=int, default=None, help="override the split's seed")
     gen.add_argument("--per-family", type=int, default=None, help="override the instances per family")
     gen.add_argument("-o", "--out", type=Path, default=None, help="write the JSONL here (default: stdout)")
+    gen.add_argument(
+        "--workers", type=int, default=1, help="processes drawing families side by side (the same bytes; default 1)"
+    )
     ls = sub.add_parser("list", help="the suite's families and the instances of its splits")
     ls.add_argument("--suite", default=None, help="suite name or directory (default: the suite robocog ships)")
     ls.add_argument("--split", default=None, help="list this split's instances, one a line")
@@ -48,7 +51,11 @@ def main(args: argparse.Namespace) -> int:
     if args.suite_command == "generate":
         if args.per_family is not None and args.per_family < 1:
             raise ConfigError(f"--per-family: must be at least 1, not {args.per_family}")
-        text = dump_instances(generate(suite, args.split, seed=args.seed, per_family=args.per_family))
+        if args.workers < 1:
+            raise ConfigError(f"--workers: must be at least 1, not {args.workers}")
+        text = dump_instances(
+            generate(suite, args.split, seed=args.seed, per_family=args.per_family, workers=args.workers)
+        )
         if args.out is None:
             sys.stdout.write(text)
         else:

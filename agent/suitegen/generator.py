@@ -18,6 +18,7 @@ names, and a test holds the conditions' symbolic meaning to the server's verdict
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import random
 
@@ -114,46 +115,66 @@ def make_instance(
     return instance.model_copy(update={"capabilities": [c for c in CAPABILITIES if c in tags]})
 
 
-def generate(suite: Suite, split: str, *, seed: int | None = None, per_family: int | None = None) -> list[Instance]:
-    """The instances of `split` of `suite` (its seed and size from the manifest unless given)."""
+def generate(
+    suite: Suite, split: str, *, seed: int | None = None, per_family: int | None = None, workers: int = 1
+) -> list[Instance]:
+    """The instances of `split` of `suite` (its seed and size from the manifest unless given), family
+    by family in the manifest's order. Each family's instances depend on nothing but the suite, the
+    split, the seed and the family, so `workers` processes may draw the families side by side and the
+    bytes are the same."""
     if split not in suite.splits:
         raise ConfigError(f"suite {suite.name!r} has no split {split!r} (splits: {', '.join(suite.splits)})")
     spec = suite.splits[split]
-    seed = spec.seed if seed is None else seed
-    count = spec.per_family if per_family is None else per_family
-    families = load_families()
-    worlds = [SceneNames(load_scene(scene_path(s))) for s in suite.scene_names()]
+    jobs = [
+        (suite, split, spec.seed if seed is None else seed, spec.per_family if per_family is None else per_family, f)
+        for f in suite.families
+    ]
+    if workers <= 1 or len(jobs) == 1:
+        return [i for job in jobs for i in _family_instances(*job)]
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(min(workers, len(jobs)), mp_context=multiprocessing.get_context("spawn")) as pool:
+        return [i for part in pool.map(_family_instances, *zip(*jobs, strict=True)) for i in part]
+
+
+def _family_instances(suite: Suite, split: str, seed: int, count: int, family_id: str) -> list[Instance]:
+    """The `count` instances of one family in `split` (a repeat of an earlier one is drawn again)."""
+    family = load_families()[family_id]
+    worlds = _worlds(tuple(suite.scene_names()))
     out: list[Instance] = []
     seen: set[tuple[str, str, str]] = set()
-    for family_id in suite.families:
-        family = families[family_id]
-        for n in range(count):
-            instance_id = f"{split}-{family_id}-{n:03d}"
-            for attempt in range(MAX_ATTEMPTS):
-                rng = random.Random(f"{suite.name}:{split}:{seed}:{family_id}:{n}:{attempt}")
-                world = rng.choice(worlds)
-                instance = make_instance(
-                    family,
-                    world,
-                    rng,
-                    instance_id=instance_id,
-                    split=split,
-                    seed=derived_seed(suite.name, split, seed, family_id, n),
-                    tagged=suite.tagged,
-                )
-                if instance is None:
-                    continue
-                key = (instance.scene, instance.prompt, instance.model_dump_json(include={"start"}))
-                if key in seen:
-                    continue
-                seen.add(key)
-                out.append(instance)
-                break
-            else:
-                raise ConfigError(
-                    f"family {family_id!r}: no valid instance in {MAX_ATTEMPTS} draws over {suite.scenes}"
-                )
+    for n in range(count):
+        instance_id = f"{split}-{family_id}-{n:03d}"
+        for attempt in range(MAX_ATTEMPTS):
+            rng = random.Random(f"{suite.name}:{split}:{seed}:{family_id}:{n}:{attempt}")
+            world = rng.choice(worlds)
+            instance = make_instance(
+                family,
+                world,
+                rng,
+                instance_id=instance_id,
+                split=split,
+                seed=derived_seed(suite.name, split, seed, family_id, n),
+                tagged=suite.tagged,
+            )
+            if instance is None:
+                continue
+            key = (instance.scene, instance.prompt, instance.model_dump_json(include={"start"}))
+            if key in seen:
+                continue
+            seen.add(key)
+            out.append(instance)
+            break
+        else:
+            raise ConfigError(f"family {family_id!r}: no valid instance in {MAX_ATTEMPTS} draws over {suite.scenes}")
     return out
+
+
+@functools.cache
+def _worlds(scenes: tuple[str, ...]) -> list[SceneNames]:
+    """The scenes' names, read once per process."""
+    return [SceneNames(load_scene(scene_path(s))) for s in scenes]
 
 
 # --- running a suite in a study (`robocog eval` with `suite:`) --------------------------------------
