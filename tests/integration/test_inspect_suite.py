@@ -1,0 +1,103 @@
+"""`robocog/suite` inside Inspect, offline: mockllm plays the scripted planner (the suite's oracle)
+through react() against real `robocog-server --profile eval` processes, one per instance."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+pytest.importorskip("inspect_ai", reason="the inspect extra (pip install robocog[inspect])")
+
+from inspect_ai import eval as inspect_eval
+from inspect_ai.model import ModelOutput, get_model
+from inspect_ai.scorer import SampleScore, Score
+
+from robocog.inspect import planner_outputs, suite, suite_instances
+from robocog.inspect._suite import by_capability
+from robocog.shared.suite import load_split
+
+
+def test_the_suite_task_scores_each_instance_by_its_ground_truth_with_metrics_per_family(tmp_path: Path) -> None:
+    # One instance each of bring, infeasible (flat, overfull) and memory (an earlier task first).
+    task = suite(suite="robocog-v1", split="dev", families="bring,infeasible,memory", limit=3)
+    [log] = inspect_eval(
+        task, model=get_model("mockllm/model", custom_outputs=planner_outputs()), log_dir=str(tmp_path), display="none"
+    )
+    assert log.status == "success", log.error
+    assert log.samples is not None
+    by_id = {str(s.id): s for s in log.samples}
+    assert set(by_id) == {"dev-bring-000", "dev-infeasible-000", "dev-memory-000"}
+    truth = {i.id: i for i in load_split("robocog-v1", "dev")}
+    for sample_id, sample in by_id.items():
+        instance = truth[sample_id]
+        assert sample.metadata["family"] == instance.family and sample.metadata["variant"] == instance.variant
+        assert sample.metadata["feasible"] is instance.feasible
+        assert sample.metadata["optimal_steps"] == instance.optimal_steps
+        assert sample.metadata["capabilities"] == []
+        assert sample.scores is not None
+        score = sample.scores["suite_verdict"]
+        assert isinstance(score.value, dict) and score.metadata is not None
+        # The oracle succeeds, and reports the infeasible instance honestly as failed (its success).
+        assert score.value["success"] == 1.0 and score.metadata["true_success"] is True, score.explanation
+        assert score.answer == ("success" if instance.feasible else "failure")
+        assert score.value["false_success"] == 0.0
+    # The memory instance ran its earlier task first, which succeeded.
+    memory_scores = by_id["dev-memory-000"].scores
+    assert memory_scores is not None
+    memory = memory_scores["suite_verdict"].metadata
+    assert memory is not None
+    assert [(d["task"], d["success"]) for d in memory["setup"]] == [("dev-memory-000-pre1", True)]
+
+    assert log.results is not None
+    metrics = {(s.name, k): m.value for s in log.results.scores for k, m in s.metrics.items()}
+    assert metrics[("success", "accuracy")] == 1.0
+    assert {k: v for (name, k), v in metrics.items() if name == "success" and k.startswith("grouped_")} == {
+        "grouped_bring": 1.0,
+        "grouped_infeasible": 1.0,
+        "grouped_memory": 1.0,
+    }
+    assert metrics[("false_success", "mean")] == 0.0
+    assert metrics[("false_success", "grouped_infeasible")] == 0.0
+
+
+def test_claiming_an_infeasible_instance_done_is_a_false_success(tmp_path: Path) -> None:
+    task = suite(families=["infeasible"], limit=1)
+    [instance] = suite_instances(families=["infeasible"], limit=1)
+    claim = ModelOutput.for_tool_call(
+        model="mockllm/model",
+        tool_name="end_task",
+        tool_arguments={"status": "success", "description": instance.prompt, "summary": "Done."},
+    )
+    model = get_model("mockllm/model", custom_outputs=[claim])
+    [log] = inspect_eval(task, model=model, log_dir=str(tmp_path), display="none")
+    assert log.status == "success", log.error
+    assert log.samples is not None
+    [sample] = log.samples
+    assert sample.scores is not None
+    score = sample.scores["suite_verdict"]
+    assert isinstance(score.value, dict) and score.answer == "success"
+    assert score.value["success"] == 0.0 and score.value["false_success"] == 1.0
+
+
+def test_instances_filter_by_family_and_limit_and_name_what_is_unknown() -> None:
+    chosen = suite_instances("robocog-v1", "dev", families="swap, memory", limit=4)
+    assert [i.family for i in chosen] == ["swap", "swap", "memory", "memory"]
+    assert len(suite_instances("robocog-v1", "test", families=["referring"])) == 20
+    with pytest.raises(ValueError, match="carries no capability tags"):
+        suite_instances("robocog-v1", capabilities="memory")
+    with pytest.raises(ValueError, match="no family"):
+        suite_instances("robocog-v1", families="juggling")
+    with pytest.raises(Exception, match="no such split"):
+        suite_instances("robocog-v1", split="train")
+
+
+def test_success_per_capability_counts_an_instance_under_each_of_its_tags() -> None:
+    def scored(value: float, tags: list[str]) -> SampleScore:
+        return SampleScore(score=Score(value=value), sample_metadata={"capabilities": tags})
+
+    scores = [scored(1.0, ["planning", "memory"]), scored(0.0, ["memory"]), scored(1.0, []), scored(0.0, ["honesty"])]
+    per_capability: Any = by_capability()  # a metric over sample scores (Inspect's protocol)
+    assert per_capability(scores) == {"honesty": 0.0, "memory": 0.5, "planning": 1.0}
+    assert per_capability([scored(1.0, [])]) == {}
