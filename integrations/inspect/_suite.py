@@ -14,7 +14,7 @@ from __future__ import annotations
 import shutil
 import tempfile
 from collections.abc import Sequence
-from typing import Literal
+from typing import Literal, cast
 
 import anyio
 from inspect_ai import Epochs, Task, task
@@ -23,19 +23,18 @@ from inspect_ai.dataset import Sample
 from inspect_ai.model import ChatMessage, ChatMessageUser
 from inspect_ai.scorer import (
     Metric,
+    MetricProtocol,
     SampleScore,
     Score,
     Scorer,
     Target,
     Value,
-    accuracy,
     grouped,
     mean,
     mean_score,
     metric,
     pass_k,
     scorer,
-    stderr,
 )
 from inspect_ai.solver import Generate, Solver, TaskState, solver
 from inspect_ai.tool import ToolDef, mcp_connection
@@ -179,9 +178,21 @@ def suite_agent(
 
 
 @metric
-def by_capability() -> Metric:
+def family() -> Metric:
+    """The mean score of each family's samples (Inspect's `grouped` over the `family` metadata): in
+    the log, `family_put_away`, ..."""
+    per_family = cast(MetricProtocol, grouped(mean(), "family", all=False))  # as grouped() calls its metric
+
+    def compute(scores: list[SampleScore]) -> Value:
+        return per_family(scores)
+
+    return compute
+
+
+@metric
+def capability() -> Metric:
     """The mean score of the samples carrying each capability tag (an instance counts under each of its
-    tags; a sample without tags, as in robocog-v1, under none)."""
+    tags; a sample without tags, as in robocog-v1, under none): in the log, `capability_memory`, ..."""
 
     def compute(scores: list[SampleScore]) -> Value:
         values: dict[str, list[float]] = {}
@@ -196,8 +207,8 @@ def by_capability() -> Metric:
 #: robocog/t1's metrics, with success per family and per capability, and false success per family.
 SUITE_METRICS: dict[str, list[Metric]] = {
     **METRICS,
-    "success": [*METRICS["success"], grouped(accuracy(), "family", all=False), by_capability()],
-    "false_success": [mean(), stderr(), grouped(mean(), "family", all=False)],
+    "success": [*METRICS["success"], family(), capability()],
+    "false_success": [*METRICS["false_success"], family(), capability()],
 }
 
 

@@ -15,7 +15,7 @@ from inspect_ai.model import ModelOutput, get_model
 from inspect_ai.scorer import SampleScore, Score
 
 from robocog.inspect import planner_outputs, suite, suite_instances
-from robocog.inspect._suite import by_capability
+from robocog.inspect._suite import capability
 from robocog.shared.suite import load_split
 
 
@@ -53,13 +53,14 @@ def test_the_suite_task_scores_each_instance_by_its_ground_truth_with_metrics_pe
     assert log.results is not None
     metrics = {(s.name, k): m.value for s in log.results.scores for k, m in s.metrics.items()}
     assert metrics[("success", "accuracy")] == 1.0
-    assert {k: v for (name, k), v in metrics.items() if name == "success" and k.startswith("grouped_")} == {
-        "grouped_bring": 1.0,
-        "grouped_infeasible": 1.0,
-        "grouped_memory": 1.0,
+    assert {k: v for (name, k), v in metrics.items() if name == "success" and k.startswith("family_")} == {
+        "family_bring": 1.0,
+        "family_infeasible": 1.0,
+        "family_memory": 1.0,
     }
+    assert not any(k.startswith("capability_") for _, k in metrics)  # robocog-v1 carries no tags
     assert metrics[("false_success", "mean")] == 0.0
-    assert metrics[("false_success", "grouped_infeasible")] == 0.0
+    assert metrics[("false_success", "family_infeasible")] == 0.0
 
 
 def test_claiming_an_infeasible_instance_done_is_a_false_success(tmp_path: Path) -> None:
@@ -98,6 +99,6 @@ def test_success_per_capability_counts_an_instance_under_each_of_its_tags() -> N
         return SampleScore(score=Score(value=value), sample_metadata={"capabilities": tags})
 
     scores = [scored(1.0, ["planning", "memory"]), scored(0.0, ["memory"]), scored(1.0, []), scored(0.0, ["honesty"])]
-    per_capability: Any = by_capability()  # a metric over sample scores (Inspect's protocol)
+    per_capability: Any = capability()  # a metric over sample scores (Inspect's protocol)
     assert per_capability(scores) == {"honesty": 0.0, "memory": 0.5, "planning": 1.0}
     assert per_capability([scored(1.0, [])]) == {}
