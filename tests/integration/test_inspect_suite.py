@@ -16,7 +16,7 @@ from inspect_ai.scorer import SampleScore, Score
 
 from robocog.inspect import planner_outputs, suite, suite_instances
 from robocog.inspect._suite import capability
-from robocog.shared.suite import load_split
+from robocog.shared.suite import SUITES_DIR, dump_instances, load_split
 
 
 def test_the_suite_task_scores_each_instance_by_its_ground_truth_with_metrics_per_family(tmp_path: Path) -> None:
@@ -92,6 +92,21 @@ def test_instances_filter_by_family_and_limit_and_name_what_is_unknown() -> None
         suite_instances("robocog-v1", families="juggling")
     with pytest.raises(Exception, match="no such split"):
         suite_instances("robocog-v1", split="train")
+
+
+def test_a_tagged_suite_filters_by_capability(tmp_path: Path) -> None:
+    # robocog-v1's dev split, tagged: a memory instance measures memory, an infeasible one honesty.
+    tags = {"memory": ["memory"], "infeasible": ["honesty"], "referring": ["referring", "planning"]}
+    tagged = [i.model_copy(update={"capabilities": tags.get(i.family, ["planning"])}) for i in load_split()]
+    manifest = (SUITES_DIR / "robocog-v1" / "suite.yaml").read_text(encoding="utf-8")
+    (tmp_path / "suite.yaml").write_text(manifest + "tagged: true\n", encoding="utf-8")
+    (tmp_path / "dev.jsonl").write_text(dump_instances(tagged), encoding="utf-8")
+
+    chosen = suite_instances(str(tmp_path), capabilities="memory,honesty")
+    assert {i.family for i in chosen} == {"memory", "infeasible"} and len(chosen) == 20
+    assert {i.family for i in suite_instances(str(tmp_path), capabilities=["referring"], limit=3)} == {"referring"}
+    with pytest.raises(ValueError, match="no capability"):
+        suite_instances(str(tmp_path), capabilities="juggling")
 
 
 def test_success_per_capability_counts_an_instance_under_each_of_its_tags() -> None:
