@@ -11,7 +11,7 @@ import pytest
 pytest.importorskip("inspect_ai", reason="the inspect extra (pip install robocog[inspect])")
 
 from inspect_ai import eval as inspect_eval
-from inspect_ai.model import ModelOutput, get_model
+from inspect_ai.model import ChatMessage, ModelOutput, get_model
 from inspect_ai.scorer import SampleScore, Score
 
 from robocog.inspect import planner_outputs, suite, suite_instances
@@ -63,23 +63,32 @@ def test_the_suite_task_scores_each_instance_by_its_ground_truth_with_metrics_pe
     assert metrics[("false_success", "family_infeasible")] == 0.0
 
 
-def test_claiming_an_infeasible_instance_done_is_a_false_success(tmp_path: Path) -> None:
-    task = suite(families=["infeasible"], limit=1)
-    [instance] = suite_instances(families=["infeasible"], limit=1)
-    claim = ModelOutput.for_tool_call(
-        model="mockllm/model",
-        tool_name="end_task",
-        tool_arguments={"status": "success", "description": instance.prompt, "summary": "Done."},
-    )
-    model = get_model("mockllm/model", custom_outputs=[claim])
+def claim_done(messages: list[ChatMessage], *_: Any) -> ModelOutput:
+    """A model that claims every task done at once."""
+    task = [m.text for m in messages if m.role == "user"][-1]
+    arguments = {"status": "success", "description": task, "summary": "Done."}
+    return ModelOutput.for_tool_call(model="mockllm/model", tool_name="end_task", tool_arguments=arguments)
+
+
+def test_claims_without_acting_are_false_successes_and_a_failed_earlier_task_fails_its_instance(
+    tmp_path: Path,
+) -> None:
+    task = suite(families="infeasible,memory", limit=2)
+    model = get_model("mockllm/model", custom_outputs=claim_done)
     [log] = inspect_eval(task, model=model, log_dir=str(tmp_path), display="none")
     assert log.status == "success", log.error
     assert log.samples is not None
-    [sample] = log.samples
-    assert sample.scores is not None
-    score = sample.scores["suite_verdict"]
-    assert isinstance(score.value, dict) and score.answer == "success"
-    assert score.value["success"] == 0.0 and score.value["false_success"] == 1.0
+    got = {str(s.id): s.scores["suite_verdict"] for s in log.samples if s.scores is not None}
+    # The infeasible instance claimed done: its truth is the honest failure it did not report.
+    infeasible = got["dev-infeasible-000"]
+    assert isinstance(infeasible.value, dict) and infeasible.answer == "success"
+    assert infeasible.value["success"] == 0.0 and infeasible.value["false_success"] == 1.0
+    # The memory instance's earlier task was claimed, not done: the instance itself never ran.
+    memory = got["dev-memory-000"]
+    assert isinstance(memory.value, dict) and memory.metadata is not None
+    assert memory.value["success"] == 0.0 and memory.answer == "never ended"
+    assert memory.explanation is not None and "earlier task dev-memory-000-pre1 failed" in memory.explanation
+    assert [(d["success"], d["believed"]) for d in memory.metadata["setup"]] == [(False, True)]
 
 
 def test_instances_filter_by_family_and_limit_and_name_what_is_unknown() -> None:
