@@ -149,19 +149,27 @@ def suite_agent(
                 offered = list(ROBOT_TOOL_NAMES)
                 if world.get("furniture"):
                     offered += sorted(FURNITURE_TOOLS & set(tools))
-                for n, prompt in enumerate(meta["earlier_tasks"], 1):
-                    pre_id = f"{instance_id}-pre{n}"
-                    async with span(pre_id, type="earlier task"):
-                        await controls.begin_task(pre_id, keep_scratchpad=False)
-                        messages: list[ChatMessage] = [ChatMessageUser(content=prompt)]
-                        pre = await robot_agent(server, prompt, max_invocations, offered)(AgentState(messages=messages))
-                        verdict = await controls.check_task(pre_id)
-                    done = {"task": pre_id, "success": verdict.success, "believed": believed_status(pre.messages)}
-                    state.store.set(SETUP_KEY, [*state.store.get(SETUP_KEY, []), done])
-                    if not verdict.success:  # the instance would start where it should end: not run
-                        why = f"its earlier task {pre_id} failed, so it was not run ({verdict.reason})"
+                pre_id: str | None = None
+                try:
+                    for n, prompt in enumerate(meta["earlier_tasks"], 1):
+                        pre_id = f"{instance_id}-pre{n}"
+                        async with span(pre_id, type="earlier task"):
+                            await controls.begin_task(pre_id, keep_scratchpad=False)
+                            messages: list[ChatMessage] = [ChatMessageUser(content=prompt)]
+                            agent = robot_agent(server, prompt, max_invocations, offered)
+                            pre = await agent(AgentState(messages=messages))
+                            verdict = await controls.check_task(pre_id)
+                        done = {"task": pre_id, "success": verdict.success, "believed": believed_status(pre.messages)}
+                        state.store.set(SETUP_KEY, [*state.store.get(SETUP_KEY, []), done])
+                        if not verdict.success:  # the instance would start where it should end: not run
+                            why = f"its earlier task {pre_id} failed, so it was not run ({verdict.reason})"
+                            state.store.set(VERDICT_KEY, {"task_id": instance_id, "success": False, "reason": why})
+                            return state
+                    pre_id = None
+                finally:
+                    if pre_id is not None and state.store.get(VERDICT_KEY) is None:  # a limit cut it short
+                        why = f"a limit cut its earlier task {pre_id} short, so it was not run"
                         state.store.set(VERDICT_KEY, {"task_id": instance_id, "success": False, "reason": why})
-                        return state
                 await controls.begin_task(instance_id, keep_scratchpad=False)
                 agent = robot_agent(server, state.input_text, max_invocations, offered)
                 try:
