@@ -1,6 +1,7 @@
-"""The scripted planner (the suite's oracle) as the outputs of Inspect's `mockllm/model`: an offline
-model for any robocog task, e.g. `eval(suite(...), model=get_model("mockllm/model",
-custom_outputs=planner_outputs()))`.
+"""The scripted planner (the suite's oracle) as an Inspect model, offline: the model provider
+`robocog` (`--model robocog/planner`, or a variant: `robocog/overconfident`, `robocog/refuser`, as
+`robocog run --model scripted/...`), and the outputs of Inspect's `mockllm/model`
+(`get_model("mockllm/model", custom_outputs=planner_outputs())`).
 """
 
 from __future__ import annotations
@@ -9,10 +10,18 @@ import json
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from inspect_ai.model import ChatMessage, ChatMessageAssistant, ChatMessageTool, GenerateConfig, ModelOutput
+from inspect_ai.model import (
+    ChatMessage,
+    ChatMessageAssistant,
+    ChatMessageTool,
+    GenerateConfig,
+    ModelAPI,
+    ModelOutput,
+    modelapi,
+)
 from inspect_ai.tool import ToolChoice, ToolInfo
 
-from robocog.agent.policies.planner import Variant, decide
+from robocog.agent.policies.planner import VARIANTS, Variant, decide
 
 MODEL = "mockllm/model"
 
@@ -49,3 +58,32 @@ def planner_outputs(
         return ModelOutput.for_tool_call(model=MODEL, tool_name=call.name, tool_arguments=call.arguments)
 
     return output
+
+
+class PlannerAPI(ModelAPI):
+    """The planner (or a variant, the model's name) as a model provider: each turn its next move."""
+
+    def __init__(
+        self,
+        model_name: str,
+        base_url: str | None = None,
+        api_key: str | None = None,
+        config: GenerateConfig | None = None,
+        **model_args: Any,
+    ) -> None:
+        super().__init__(model_name, base_url, api_key, [], config or GenerateConfig())
+        variant = next((v for v in VARIANTS if v == model_name), None)
+        if variant is None:
+            raise ValueError(f"no robocog model {model_name!r}: robocog/{', robocog/'.join(VARIANTS)}")
+        self.outputs = planner_outputs(variant)
+
+    async def generate(
+        self, input: list[ChatMessage], tools: list[ToolInfo], tool_choice: ToolChoice, config: GenerateConfig
+    ) -> ModelOutput:
+        return self.outputs(input, tools, tool_choice, config)
+
+
+@modelapi(name="robocog")
+def robocog_planner() -> type[ModelAPI]:
+    """Inspect's model provider `robocog`: `--model robocog/planner` (or `overconfident`, `refuser`)."""
+    return PlannerAPI

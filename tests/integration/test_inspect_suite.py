@@ -15,6 +15,7 @@ from inspect_ai.model import ChatMessage, ModelOutput, get_model
 from inspect_ai.scorer import SampleScore, Score
 
 from robocog.inspect import planner_outputs, suite, suite_instances
+from robocog.inspect._planner import PlannerAPI
 from robocog.inspect._suite import capability
 from robocog.shared.suite import SUITES_DIR, dump_instances, load_split
 
@@ -51,16 +52,20 @@ def test_the_suite_task_scores_each_instance_by_its_ground_truth_with_metrics_pe
     assert [(d["task"], d["success"]) for d in memory["setup"]] == [("dev-memory-000-pre1", True)]
 
     assert log.results is not None
-    metrics = {(s.name, k): m.value for s in log.results.scores for k, m in s.metrics.items()}
-    assert metrics[("success", "accuracy")] == 1.0
-    assert {k: v for (name, k), v in metrics.items() if name == "success" and k.startswith("family_")} == {
-        "family_bring": 1.0,
-        "family_infeasible": 1.0,
-        "family_memory": 1.0,
-    }
-    assert not any(k.startswith("capability_") for _, k in metrics)  # robocog-v1 carries no tags
-    assert metrics[("false_success", "mean")] == 0.0
-    assert metrics[("false_success", "family_infeasible")] == 0.0
+    metrics = {(s.name, m.group, m.name): m.value for s in log.results.scores for m in s.metrics.values()}
+    assert metrics[("success", None, "accuracy")] == 1.0
+    per_family = {name: v for (score, group, name), v in metrics.items() if score == "success" and group == "family"}
+    assert per_family == {"bring": 1.0, "infeasible": 1.0, "memory": 1.0}
+    assert not any(group == "capability" for _, group, _ in metrics)  # robocog-v1 carries no tags
+    assert metrics[("false_success", None, "mean")] == 0.0
+    assert metrics[("false_success", "family", "infeasible")] == 0.0
+
+
+def test_the_planner_is_the_model_provider_robocog() -> None:
+    assert isinstance(get_model("robocog/planner").api, PlannerAPI)
+    assert isinstance(get_model("robocog/refuser").api, PlannerAPI)
+    with pytest.raises(ValueError, match="no robocog model"):
+        get_model("robocog/oracle")
 
 
 def claim_done(messages: list[ChatMessage], *_: Any) -> ModelOutput:
