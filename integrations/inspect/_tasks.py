@@ -30,11 +30,11 @@ from typing import Any, Literal
 
 import anyio
 from inspect_ai import Epochs, Task, task
-from inspect_ai.agent import AgentPrompt, AgentState, as_solver, react
+from inspect_ai.agent import Agent, AgentPrompt, AgentState, as_solver, react
 from inspect_ai.approval import Approval, ApprovalPolicy, Approver, approver
 from inspect_ai.dataset import Sample
 from inspect_ai.model import ChatMessage, ChatMessageAssistant, ChatMessageTool, ContentText
-from inspect_ai.scorer import Score, Scorer, Target, accuracy, mean, mean_score, pass_k, scorer, stderr
+from inspect_ai.scorer import Metric, Score, Scorer, Target, accuracy, mean, mean_score, pass_k, scorer, stderr
 from inspect_ai.solver import Generate, Solver, TaskState, solver
 from inspect_ai.tool import (
     MCPServer,
@@ -231,6 +231,22 @@ async def play_planner(tools: dict[str, Tool], task_id: str, prompt: str, max_ca
 # --- solver, scorer, tasks ---------------------------------------------------------------------------
 
 
+def robot_agent(
+    server: MCPServer, task_prompt: str, max_invocations: int, tool_names: Sequence[str] = ROBOT_TOOL_NAMES
+) -> Agent:
+    """Inspect's react() over `tool_names` of the episode's server, with the robocog system prompt: it
+    stops once end_task ended the episode, and a call after end_task in the same turn is not run."""
+    return react(
+        prompt=AgentPrompt(
+            instructions=system_prompt(), handoff_prompt=None, assistant_prompt=None, submit_prompt=None
+        ),
+        tools=[mcp_tools(server, tools=list(tool_names))],
+        submit=False,
+        on_continue=stop_on_end_task(task_prompt, max_invocations),
+        approval=[ApprovalPolicy(approver=nothing_after_end_task(), tools="*")],
+    )
+
+
 @solver
 def robocog_agent(
     max_invocations: int = 10,
@@ -260,15 +276,7 @@ def robocog_agent(
                     await play_planner(tools, required, specs[required].prompt)
                     state.store.set(SETUP_KEY, [*state.store.get(SETUP_KEY, []), required])
                 await controls.begin_task(task_id, keep_scratchpad=False)
-                agent = react(
-                    prompt=AgentPrompt(
-                        instructions=system_prompt(), handoff_prompt=None, assistant_prompt=None, submit_prompt=None
-                    ),
-                    tools=[mcp_tools(server, tools=list(ROBOT_TOOL_NAMES))],
-                    submit=False,
-                    on_continue=stop_on_end_task(specs[task_id].prompt, max_invocations),
-                    approval=[ApprovalPolicy(approver=nothing_after_end_task(), tools="*")],
-                )
+                agent = robot_agent(server, specs[task_id].prompt, max_invocations)
                 try:
                     state = await as_solver(agent)(state, generate)
                 finally:
@@ -282,13 +290,15 @@ def robocog_agent(
     return solve
 
 
-@scorer(
-    metrics={
-        "success": [accuracy(), stderr()],
-        "false_success": [mean(), stderr()],
-        "believed_success": [mean(), stderr()],
-    }
-)
+#: The metrics of a sample's score: the truth's accuracy, and the rates of the claims.
+METRICS: dict[str, list[Metric]] = {
+    "success": [accuracy(), stderr()],
+    "false_success": [mean(), stderr()],
+    "believed_success": [mean(), stderr()],
+}
+
+
+@scorer(metrics=METRICS)
 def robocog_verdict() -> Scorer:
     """Ground truth (check_task, on the episode's own connection) against the believed status
     (end_task's): `success` (the truth), `false_success` (claimed success, truly failed: the paper's
@@ -296,31 +306,32 @@ def robocog_verdict() -> Scorer:
     episode claims nothing)."""
 
     async def score(state: TaskState, target: Target) -> Score:
-        verdict = state.store.get(VERDICT_KEY)
-        if not isinstance(verdict, dict):
-            raise RuntimeError("no check_task verdict in the sample's store: the episode's server never answered")
-        truth = bool(verdict["success"])
-        believed = believed_status(state.messages)
-        claimed = believed is True
-        status = {True: "success", False: "failure", None: "never ended"}[believed]
-        return Score(
-            value={
-                "success": float(truth),
-                "false_success": float(claimed and not truth),
-                "believed_success": float(claimed),
-            },
-            answer=status,
-            explanation=str(verdict.get("reason", "")),
-            metadata={
-                "true_success": truth,
-                "believed_success": believed,
-                "agreement": claimed == truth,
-                "outcome": "ended" if believed is not None else "stopped",
-                "setup": state.store.get(SETUP_KEY, []),
-            },
-        )
+        return verdict_score(state)
 
     return score
+
+
+def verdict_score(state: TaskState) -> Score:
+    """The score of a sample from the verdict its solver kept and the believed status in its transcript."""
+    verdict = state.store.get(VERDICT_KEY)
+    if not isinstance(verdict, dict):
+        raise RuntimeError("no check_task verdict in the sample's store: the episode's server never answered")
+    truth = bool(verdict["success"])
+    believed = believed_status(state.messages)
+    claimed = believed is True
+    false = claimed and not truth
+    return Score(
+        value={"success": float(truth), "false_success": float(false), "believed_success": float(claimed)},
+        answer={True: "success", False: "failure", None: "never ended"}[believed],
+        explanation=str(verdict.get("reason", "")),
+        metadata={
+            "true_success": truth,
+            "believed_success": believed,
+            "agreement": claimed == truth,
+            "outcome": "ended" if believed is not None else "stopped",
+            "setup": state.store.get(SETUP_KEY, []),
+        },
+    )
 
 
 def episodes(task_id: str, seeds: Sequence[int], randomize: bool) -> list[Sample]:
@@ -370,14 +381,8 @@ def t1(
     memory_labels: Literal["believed", "verified"] = "believed",
 ) -> Task:
     """T1 of the paper: put the mug, the box and the cube away into the kitchen shelf."""
-    return robocog_task(
-        "T1",
-        seeds=[seeds] if isinstance(seeds, int) else seeds,
-        randomize=randomize,
-        epochs=epochs,
-        max_invocations=max_invocations,
-        memory_labels=memory_labels,
-    )
+    seeds = [seeds] if isinstance(seeds, int) else seeds
+    return robocog_task("T1", seeds, randomize, epochs, max_invocations, memory_labels)
 
 
 @task
@@ -390,11 +395,5 @@ def t2(
 ) -> Task:
     """T2 of the paper: swap the mug and the cube in the shelf. The world starts where T1 ends (the
     scripted planner plays T1 harness-side, without end_task, so memory starts empty)."""
-    return robocog_task(
-        "T2",
-        seeds=[seeds] if isinstance(seeds, int) else seeds,
-        randomize=randomize,
-        epochs=epochs,
-        max_invocations=max_invocations,
-        memory_labels=memory_labels,
-    )
+    seeds = [seeds] if isinstance(seeds, int) else seeds
+    return robocog_task("T2", seeds, randomize, epochs, max_invocations, memory_labels)
