@@ -77,9 +77,13 @@ def route(scene: Scene, start: str, goal: str, without: frozenset[str] | None = 
 
 
 def _transport(rng: random.Random, world: SceneNames, where: Where) -> tuple[str, str, str] | None:
-    """An item resting away from the robot's start, where it rests, and a location to bring it to."""
+    """An item resting away from the robot's start, where it rests, and a location with a free place
+    position to bring it to: its optimal plan is move_to, grab, move_to, place (nothing to clear first),
+    so the first object in the hand is the item and the calls of its drives are known."""
     item, spot, location = item_elsewhere(rng, world, where)
     if spot is None or location is None or spot[0] == world.scene.robot_start:
+        return None
+    if all(s in where.values() for s in world.spots_at(location)):
         return None
     return item, spot[0], location
 

@@ -31,6 +31,7 @@ import random
 from dataclasses import dataclass, field, replace
 from typing import Any, Literal, TypeGuard
 
+from robocog.agent.policies import recovery
 from robocog.agent.policies.belief import (
     UNGRASPABLE_NOTE,
     Belief,
@@ -184,7 +185,9 @@ class Planner:
         if isinstance(step, Call):
             return step
         action = self.act(step)
-        return action if action is not None else self.conclude(step)
+        if action is None:
+            return self.conclude(step)
+        return recovery.detour(action, step.belief, recovery.read_setbacks(step.calls))
 
     def prepare(self, history: History) -> Call | Episode:
         """Search memory, look around, understand the task and note the plan; then the episode."""
@@ -213,6 +216,8 @@ class Planner:
         ungraspable = _grabbed(calls, "error", "not_graspable")
         given_up = {o: "it cannot be grasped" for o in ungraspable}
         given_up |= {o: "no such object" for o in _grabbed(calls, "error", "unknown_object")}
+        lost = recovery.lost(request.goals, belief, recovery.read_setbacks(calls))
+        given_up |= {o: why for o, why in lost.items() if o not in given_up}
         goals = {o: g for o, g in request.goals.items() if o not in given_up}
         extras: tuple[str, ...] = ()
         if request.all_items:
@@ -224,7 +229,7 @@ class Planner:
         episode = Episode(task, request, goals, first, belief, given_up, frozenset(ungraspable), extras, calls)
         if len(calls) >= MAX_TOOL_CALLS:
             return episode.end("failure", episode.summary(len(calls) + 1) + " I gave up after too many tool calls.")
-        if belief.stale:
+        if belief.stale or recovery.look_again(calls):  # the world changed under it: look again
             return Call("look_around")
         return episode
 
