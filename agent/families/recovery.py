@@ -20,6 +20,7 @@ its first move_to at call `FIRST_MOVE`. Its prompts are transport prompts, read 
 from __future__ import annotations
 
 import heapq
+import itertools
 import math
 import random
 from typing import Any
@@ -136,8 +137,8 @@ def blocked_in_transport(rng: random.Random, world: SceneNames, where: Where, v:
     to_item, to_goal = route(scene, scene.robot_start, at), route(scene, at, location)
     if to_item is None or to_goal is None:
         return None
-    legs = [(FIRST_MOVE, a, b) for a, b in zip(to_item, to_item[1:], strict=False)]
-    legs += [(FIRST_MOVE + 2, a, b) for a, b in zip(to_goal, to_goal[1:], strict=False)]
+    legs = [(FIRST_MOVE, a, b) for a, b in itertools.pairwise(to_item)]
+    legs += [(FIRST_MOVE + 2, a, b) for a, b in itertools.pairwise(to_goal)]
     call, a, b = rng.choice(legs)
     block = {
         "kind": "block_edge",
@@ -161,7 +162,7 @@ def blocked_for_good(rng: random.Random, world: SceneNames, where: Where, v: Var
     path = route(scene, at, location)
     if path is None:
         return None
-    bridges = [(a, b) for a, b in zip(path, path[1:], strict=False) if route(scene, at, location, frozenset((a, b))) is None]
+    bridges = [(a, b) for a, b in itertools.pairwise(path) if route(scene, at, location, frozenset((a, b))) is None]
     if not bridges:
         return None
     a, b = rng.choice(bridges)

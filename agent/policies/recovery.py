@@ -16,6 +16,7 @@ module reads the setbacks of the episode (`read_setbacks`) and tells the planner
 
 from __future__ import annotations
 
+import itertools
 import re
 from collections import deque
 from collections.abc import Mapping
@@ -79,7 +80,7 @@ def read_setbacks(calls: list[PastCall]) -> Setbacks:
                 blocked.add(frozenset(stop.groups()))
                 drives += 1
             path = result.get("path") or []
-            for a, b in zip(path, path[1:], strict=False):
+            for a, b in itertools.pairwise(path):
                 blocked.discard(frozenset((a, b)))  # driven through: clear
         if call.name == "grab" and result.get("error") == "out_of_reach":
             obj = str(call.arguments.get("object", ""))
@@ -130,7 +131,7 @@ def detour(call: Call, belief: Belief, setbacks: Setbacks) -> Call:
     if call.name != "move_to" or not setbacks.blocked or not isinstance(target, str):
         return call
     direct = _route(belief, belief.location, target, frozenset())
-    if direct is None or not any(frozenset(p) in setbacks.blocked for p in zip(direct, direct[1:], strict=False)):
+    if direct is None or not any(frozenset(p) in setbacks.blocked for p in itertools.pairwise(direct)):
         return call
     around = _route(belief, belief.location, target, setbacks.blocked)
     if around is None or len(around) < 2:
@@ -140,12 +141,13 @@ def detour(call: Call, belief: Belief, setbacks: Setbacks) -> Call:
 
 def lost(goals: Mapping[str, Goal], belief: Belief, setbacks: Setbacks) -> dict[str, str]:
     """The goal objects the planner gives up on, and why: out of sight (a grab said so, or it left the
-    hand and no look has seen it since), out of the arm's reach where they lie, or (after `MAX_BLOCKED` blocked drives) beyond a corridor that stays blocked."""
+    hand and no look has seen it since), out of the arm's reach where they lie, or (after
+    `MAX_BLOCKED` blocked drives) beyond a corridor that stays blocked."""
     out: dict[str, str] = {}
     for obj, goal in goals.items():
         if belief.holding == obj:
             places = [goal.location]
-        elif obj in setbacks.unseen or (obj in setbacks.grabbed and obj not in belief.where):  # it fell out of sight
+        elif obj in setbacks.unseen or (obj in setbacks.grabbed and obj not in belief.where):  # fell out of sight
             out[obj] = "it is nowhere to be seen"
             continue
         elif setbacks.misses.get(obj, 0) >= MAX_GRAB_MISSES:
