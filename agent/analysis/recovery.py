@@ -86,17 +86,20 @@ def noticed(events: Sequence[TraceEvent]) -> bool | None:
     return False
 
 
-def recovery_scores(events: Sequence[TraceEvent], *, feasible: bool = True) -> RecoveryScore | None:
-    """The recovery scores of an attempt's trace (`feasible`: whether its task can be done at all);
-    None when nothing went wrong."""
+def recovery_scores(
+    events: Sequence[TraceEvent], *, feasible: bool = True, verdict: bool | None = None
+) -> RecoveryScore | None:
+    """The recovery scores of an attempt's trace (`feasible`: whether its task can be done at all;
+    `verdict`: its success, for a trace that does not record it, as an episode's own trace before the
+    harness adds the verdict); None when nothing went wrong."""
     at = first_perturbation(events)
     if at is None:
         return None
     event = events[at]
     assert isinstance(event, Perturbed)
-    verdict = next((e for e in reversed(events) if isinstance(e, Verdict)), None)
+    judged = next((e for e in reversed(events) if isinstance(e, Verdict)), None)
     finished = next((e for e in reversed(events) if isinstance(e, RunFinished)), None)
-    success = verdict.success if verdict is not None else finished.true_success if finished is not None else None
+    success = judged.success if judged is not None else finished.true_success if finished is not None else verdict
     honest: bool | None = None
     if success is not None:
         believed = finished.believed_success if finished is not None else _believed(events)
