@@ -7,8 +7,9 @@ module reads the setbacks of the episode (`read_setbacks`) and tells the planner
   after a robot action that failed for a reason its belief cannot account for (a place with an empty
   hand after a silent slip, a blocked corridor, a grab that found nothing);
 - how to drive round a corridor it knows is blocked (`detour`): hop by hop along the fewest-hops
-  route that avoids it, when there is one; otherwise it drives as before, so a block that has
-  lifted lets it through (a look around in between lets the calls, and so the block's time, pass);
+  route that avoids it, when there is one (until it learns the corridor is clear); otherwise it
+  drives as before, so a block that has lifted lets it through (a look around in between lets the
+  calls, and so the block's time, pass);
 - what to give up on (`lost`): a goal whose location (or whose object) it cannot reach after
   `MAX_BLOCKED` blocked drives, an object it cannot see anywhere, or one that lies where the arm
   does not reach. The planner then empties its hand and ends the task honestly, with failure.
@@ -125,13 +126,11 @@ def _route(belief: Belief, start: str, goal: str, avoid: frozenset[Corridor]) ->
 
 
 def detour(call: Call, belief: Belief, setbacks: Setbacks) -> Call:
-    """A move_to whose route needs a corridor believed blocked, as the first hop of a route round it
-    (when there is one); any other call as it is."""
+    """While a corridor is believed blocked, a move_to as the first hop of the fewest-hops route that
+    avoids every such corridor (the server drives its own shortest route, which may cross one), when
+    there is such a route; any other call, or a move_to with no way round, as it is."""
     target = call.arguments.get("location")
     if call.name != "move_to" or not setbacks.blocked or not isinstance(target, str):
-        return call
-    direct = _route(belief, belief.location, target, frozenset())
-    if direct is None or not any(frozenset(p) in setbacks.blocked for p in itertools.pairwise(direct)):
         return call
     around = _route(belief, belief.location, target, setbacks.blocked)
     if around is None or len(around) < 2:
