@@ -15,8 +15,10 @@ plans, the one that drives the fewest map hops), which parks an object on a free
 goal needs it (a swap, a rearrangement).
 An object not resting on a place position may be a fixture (the TV): when the task needs it, the
 planner tries to grasp it before it moves anything else; "put away all the items" tries such
-objects last, as they may not be items at all. It recovers from failures by looking again, verifies
-with a last look, and ends with a truthful report, leaving nothing in the hand.
+objects last, as they may not be items at all. It recovers from failures and from what changes
+under it (a slip, a moved object, a blocked corridor: `robocog.agent.policies.recovery`) by looking
+again, driving round a block or waiting it out, and giving up honestly on what stays out of reach;
+it verifies with a last look, and ends with a truthful report, leaving nothing in the hand.
 
 The planner is one policy (`Planner`): `prepare` reads the episode and does the preliminaries,
 `act` takes the next step towards the goals, `conclude` verifies and reports. The variants are
