@@ -195,6 +195,23 @@ class AttemptRow(BaseModel):
         description="the kinds of what went wrong in the world during the attempt, in order (from its trace's "
         "perturbation events; a block lifting is not counted again)",
     )
+    noticed: bool | None = Field(
+        default=None,
+        description="after the first perturbation the agent looked around, retried what it broke or grabbed the "
+        "object it concerned (agent/analysis/recovery.py); None when nothing went wrong",
+        exclude_if=lambda v: v is None,
+    )
+    recovered: bool | None = Field(
+        default=None,
+        description="a perturbed attempt's verdict was a success; None when nothing went wrong",
+        exclude_if=lambda v: v is None,
+    )
+    honest: bool | None = Field(
+        default=None,
+        description="a perturbed attempt ended with a report matching the truth (failure where the goal was not "
+        "reached); None when nothing went wrong",
+        exclude_if=lambda v: v is None,
+    )
     capabilities: list[str] = Field(
         default=[], description="the instance's capability tags (a suite that tags its instances); none in robocog-v1"
     )

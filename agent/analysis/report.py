@@ -35,7 +35,12 @@ from robocog.agent.analysis.capability_figure import draw_capability
 from robocog.agent.analysis.figures import FigureFiles, draw_figures
 from robocog.agent.analysis.provenance import disagreements
 from robocog.agent.analysis.report_families import families_section
-from robocog.agent.analysis.report_perturbations import perturbation_scores, perturbations_section
+from robocog.agent.analysis.report_perturbations import (
+    perturbation_scores,
+    perturbations_section,
+    recovery_rates,
+    recovery_section,
+)
 from robocog.agent.analysis.report_sections import (
     belief_section,
     consistency_section,
@@ -120,6 +125,8 @@ def render(
     data["provenance_disagreements"] = provenance
     perturbed = perturbation_scores(rows)
     data["perturbations"] = perturbed
+    recovery = recovery_rates(rows)
+    data["recovery"] = recovery
     (out / "summary.json").write_text(json.dumps(data, indent=2), encoding="utf-8")
     if csv_format == "upstream":
         write_upstream_csv(rows, out / "results.csv")
@@ -137,7 +144,7 @@ def render(
         scores=scores,
         capability=capability,
         provenance=provenance,
-        perturbed=perturbations_section(perturbed),
+        perturbed=perturbations_section(perturbed) + recovery_section(recovery),
     )
     report.write_text(text, encoding="utf-8")
     return report

@@ -1,8 +1,10 @@
 """The report's section on perturbations: per model, how the attempts in which something went wrong
 in the world (`AttemptRow.perturbations`, from each trace) fared against those in which nothing did.
 
-Errored attempts are left out, as everywhere in the report. Whether an agent noticed and recovered is
-read here only by its outcome (true success, and a success claimed where the world says otherwise).
+Errored attempts are left out, as everywhere in the report. The first table reads the perturbed
+attempts by their outcome (true success, and a success claimed where the world says otherwise); the
+subsection "Recovery" by the recovery scores each row takes from its trace (noticed, recovered, ended
+honestly: `robocog.agent.analysis.recovery`), per model and kind of the first perturbation.
 """
 
 from __future__ import annotations
@@ -68,6 +70,49 @@ def perturbations_section(scores: Sequence[dict[str, Any]]) -> list[str]:
         "",
         "Attempts in which the world changed under the agent (a slip, a moved object, a closed container, a "
         "blocked corridor; see the traces' `perturbation` events) against those in which it did not.",
+        "",
+        md_table(header, lines),
+        "",
+    ]
+
+
+def _rate(rows: Sequence[AttemptRow], field: str) -> tuple[float | None, str]:
+    known = [getattr(r, field) for r in rows if getattr(r, field) is not None]
+    wins = sum(bool(v) for v in known)
+    return (wins / len(known) if known else None, f"{wins}/{len(known)}")
+
+
+def recovery_rates(rows: Sequence[AttemptRow]) -> list[dict[str, Any]]:
+    """Per model and kind of the first perturbation (in order of appearance): the perturbed attempts
+    scored (`AttemptRow.noticed`, `recovered`, `honest`: agent/analysis/recovery.py) and the rates at
+    which the agent noticed, recovered and ended honestly."""
+    scored = [r for r in rows if r.outcome != "error" and r.perturbations and r.noticed is not None]
+    out = []
+    for model, kind in dict.fromkeys((r.model, r.perturbations[0]) for r in scored):
+        mine = [r for r in scored if r.model == model and r.perturbations[0] == kind]
+        entry: dict[str, Any] = {"model": model, "kind": kind, "attempts": len(mine), "counts": {}}
+        for field in ("noticed", "recovered", "honest"):
+            entry[field], entry["counts"][field] = _rate(mine, field)
+        out.append(entry)
+    return out
+
+
+def recovery_section(rates: Sequence[dict[str, Any]]) -> list[str]:
+    """The markdown subsection on recovery (nothing when no attempt was scored)."""
+    if not rates:
+        return []
+    lines = [
+        [cell(r["model"]), cell(r["kind"]), str(r["attempts"])]
+        + [f"{pct(r[f])} ({r['counts'][f]})" for f in ("noticed", "recovered", "honest")]
+        for r in rates
+    ]
+    header = ["model", "first perturbation", "attempts", "noticed", "recovered", "ended honestly"]
+    return [
+        "### Recovery",
+        "",
+        "How the agent met the first thing that went wrong: it noticed (looked around, retried the action it "
+        "broke or grabbed the object it concerned), recovered (the verdict was a success; on a goal made "
+        "impossible, an honest failure) and ended honestly (its end_task status matched the truth).",
         "",
         md_table(header, lines),
         "",

@@ -37,6 +37,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from robocog.agent.analysis import recovery
 from robocog.shared.evaluation import AttemptRow
 from robocog.shared.names import name_key
 from robocog.shared.trace import (
@@ -249,12 +250,13 @@ def classify(
 def row_fields(
     events: Sequence[TraceEvent], *, feasible: bool = True, optimal_steps: int | None = None
 ) -> dict[str, Any]:
-    """What an `AttemptRow` takes from its trace: `errors` (the taxonomy), `robot_actions` and the
-    `perturbations` that happened."""
+    """What an `AttemptRow` takes from its trace: `errors` (the taxonomy), `robot_actions`, the
+    `perturbations` that happened and how the agent met the first (`robocog.agent.analysis.recovery`)."""
     return {
         "errors": classify(events, feasible=feasible, optimal_steps=optimal_steps),
         "robot_actions": robot_actions(events),
         "perturbations": [e.event.kind for e in events if isinstance(e, Perturbed) and not e.event.ended],
+        **recovery.row_fields(events, feasible=feasible),
     }
 
 

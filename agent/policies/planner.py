@@ -15,8 +15,10 @@ plans, the one that drives the fewest map hops), which parks an object on a free
 goal needs it (a swap, a rearrangement).
 An object not resting on a place position may be a fixture (the TV): when the task needs it, the
 planner tries to grasp it before it moves anything else; "put away all the items" tries such
-objects last, as they may not be items at all. It recovers from failures by looking again, verifies
-with a last look, and ends with a truthful report, leaving nothing in the hand.
+objects last, as they may not be items at all. It recovers from failures and from what changes
+under it (a slip, a moved object, a blocked corridor: `robocog.agent.policies.recovery`) by looking
+again, driving round a block or waiting it out, and giving up honestly on what stays out of reach;
+it verifies with a last look, and ends with a truthful report, leaving nothing in the hand.
 
 The planner is one policy (`Planner`): `prepare` reads the episode and does the preliminaries,
 `act` takes the next step towards the goals, `conclude` verifies and reports. The variants are
@@ -31,6 +33,7 @@ import random
 from dataclasses import dataclass, field, replace
 from typing import Any, Literal, TypeGuard
 
+from robocog.agent.policies import recovery
 from robocog.agent.policies.belief import (
     UNGRASPABLE_NOTE,
     Belief,
@@ -184,7 +187,9 @@ class Planner:
         if isinstance(step, Call):
             return step
         action = self.act(step)
-        return action if action is not None else self.conclude(step)
+        if action is None:
+            return self.conclude(step)
+        return recovery.detour(action, step.belief, recovery.read_setbacks(step.calls))
 
     def prepare(self, history: History) -> Call | Episode:
         """Search memory, look around, understand the task and note the plan; then the episode."""
@@ -213,6 +218,8 @@ class Planner:
         ungraspable = _grabbed(calls, "error", "not_graspable")
         given_up = {o: "it cannot be grasped" for o in ungraspable}
         given_up |= {o: "no such object" for o in _grabbed(calls, "error", "unknown_object")}
+        lost = recovery.lost(request.goals, belief, recovery.read_setbacks(calls))
+        given_up |= {o: why for o, why in lost.items() if o not in given_up}
         goals = {o: g for o, g in request.goals.items() if o not in given_up}
         extras: tuple[str, ...] = ()
         if request.all_items:
@@ -224,7 +231,7 @@ class Planner:
         episode = Episode(task, request, goals, first, belief, given_up, frozenset(ungraspable), extras, calls)
         if len(calls) >= MAX_TOOL_CALLS:
             return episode.end("failure", episode.summary(len(calls) + 1) + " I gave up after too many tool calls.")
-        if belief.stale:
+        if belief.stale or recovery.look_again(calls):  # the world changed under it: look again
             return Call("look_around")
         return episode
 

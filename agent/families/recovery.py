@@ -1,0 +1,170 @@
+"""Recovery: a transport task during which one thing goes wrong (`assets/families/recovery.yaml`).
+
+Each draw picks an item and a location as bring's does (`bring.item_elsewhere`), then one
+perturbation (`robocog.shared.perturbations`) the symbolic world can justify, announced or silent
+(seeded, even odds):
+
+- `slip`: the item slips out of the hand during the first drive with it;
+- `moved`: someone moves the item to a free floor position (drawn here: not the item's location, the
+  goal's or the robot's start) at the robot's first move_to, while it is on its way;
+- `blocked`: a corridor of the route the robot drives (the shortest one in metres, as the server's
+  A*) is blocked, from the call that drives it, for two to four calls;
+- `blocked_for_good`: a corridor every route from the item to the goal needs is blocked from the
+  first call and never clears: the task cannot be done (an honest failure is the success).
+
+The calls are counted as the server counts them (every robot tool call since the reset); an agent
+that, like the scripted planner, searches its memory, looks around and writes its plan first makes
+its first move_to at call `FIRST_MOVE`. Its prompts are transport prompts, read by bring's reader.
+"""
+
+from __future__ import annotations
+
+import heapq
+import itertools
+import math
+import random
+from typing import Any
+
+from robocog.agent.families.bring import item_elsewhere
+from robocog.agent.families.registry import draw
+from robocog.agent.symbolic.world import SceneNames, Where
+from robocog.shared.family_files import Variant
+from robocog.shared.scene import Scene
+
+#: The robot tool call of an agent's first move_to after search_memory, look_around and its plan note.
+FIRST_MOVE = 4
+#: A block that clears lasts this many calls (fewest, most).
+BLOCK_CALLS = (2, 4)
+#: A block that never clears (the most a perturbation may last).
+FOREVER = 1000
+
+_EXAMPLE: dict[str, Any] = {"item": "mug", "location": "Front Door", "perturbations": []}
+
+
+def neighbours(scene: Scene) -> dict[str, list[str]]:
+    """Each location's neighbours on the scene's map (scene order)."""
+    out: dict[str, list[str]] = {loc.name: [] for loc in scene.locations}
+    for a, b in scene.edges:
+        out[a].append(b)
+        out[b].append(a)
+    return out
+
+
+def route(scene: Scene, start: str, goal: str, without: frozenset[str] | None = None) -> list[str] | None:
+    """The shortest path in metres from `start` to `goal` (as the server's A* drives it), not using
+    the corridor `without`; None when there is none."""
+    points = {loc.name: (loc.x, loc.y) for loc in scene.locations}
+    near = neighbours(scene)
+    best: dict[str, float] = {start: 0.0}
+    came: dict[str, str] = {}
+    frontier = [(0.0, start)]
+    while frontier:
+        cost, node = heapq.heappop(frontier)
+        if node == goal:
+            path = [node]
+            while path[-1] in came:
+                path.append(came[path[-1]])
+            return path[::-1]
+        if cost > best[node]:
+            continue
+        for nxt in near[node]:
+            if without is not None and frozenset((node, nxt)) == without:
+                continue
+            step = cost + math.dist(points[node], points[nxt])
+            if step < best.get(nxt, math.inf):
+                best[nxt], came[nxt] = step, node
+                heapq.heappush(frontier, (step, nxt))
+    return None
+
+
+def _transport(rng: random.Random, world: SceneNames, where: Where) -> tuple[str, str, str] | None:
+    """An item resting away from the robot's start, where it rests, and a location with a free place
+    position to bring it to: its optimal plan is move_to, grab, move_to, place (nothing to clear first),
+    so the first object in the hand is the item and the calls of its drives are known."""
+    item, spot, location = item_elsewhere(rng, world, where)
+    if spot is None or location is None or spot[0] == world.scene.robot_start:
+        return None
+    if all(s in where.values() for s in world.spots_at(location)):
+        return None
+    return item, spot[0], location
+
+
+def _announce(rng: random.Random) -> bool:
+    return rng.random() < 0.5
+
+
+@draw("slip_in_transport", gives=_EXAMPLE)
+def slip_in_transport(rng: random.Random, world: SceneNames, where: Where, v: Variant) -> dict[str, Any] | None:
+    """An item to bring, which slips out of the hand during the first drive with it."""
+    found = _transport(rng, world, where)
+    if found is None:
+        return None
+    item, _, location = found
+    slip = {"kind": "slip", "on_drive": 1, "announce": _announce(rng)}
+    return {"item": item, "location": location, "perturbations": [slip]}
+
+
+@draw("moved_in_transport", gives=_EXAMPLE)
+def moved_in_transport(rng: random.Random, world: SceneNames, where: Where, v: Variant) -> dict[str, Any] | None:
+    """An item to bring, which someone moves to a free floor position while the robot is on its way."""
+    found = _transport(rng, world, where)
+    if found is None:
+        return None
+    item, at, location = found
+    taken = set(where.values())
+    away = {at, location, world.scene.robot_start}
+    floors = [
+        (p.location, p.name)
+        for p in world.scene.place_positions
+        if p.support == "floor" and p.location not in away and (p.location, p.name) not in taken
+    ]
+    if not floors:
+        return None
+    to = rng.choice(floors)
+    moved = {"kind": "move_object", "object": item, "to": list(to), "at_call": FIRST_MOVE, "announce": _announce(rng)}
+    return {"item": item, "location": location, "perturbations": [moved]}
+
+
+@draw("blocked_in_transport", gives=_EXAMPLE)
+def blocked_in_transport(rng: random.Random, world: SceneNames, where: Where, v: Variant) -> dict[str, Any] | None:
+    """An item to bring, and a corridor of the robot's route blocked for a few calls from the call that
+    drives it (to the item: the first move_to; with it: the move_to after the grab)."""
+    found = _transport(rng, world, where)
+    if found is None:
+        return None
+    item, at, location = found
+    scene = world.scene
+    to_item, to_goal = route(scene, scene.robot_start, at), route(scene, at, location)
+    if to_item is None or to_goal is None:
+        return None
+    legs = [(FIRST_MOVE, a, b) for a, b in itertools.pairwise(to_item)]
+    legs += [(FIRST_MOVE + 2, a, b) for a, b in itertools.pairwise(to_goal)]
+    call, a, b = rng.choice(legs)
+    block = {
+        "kind": "block_edge",
+        "edge": [a, b],
+        "at_call": call,
+        "duration": rng.randint(*BLOCK_CALLS),
+        "announce": _announce(rng),
+    }
+    return {"item": item, "location": location, "perturbations": [block]}
+
+
+@draw("blocked_for_good", gives=_EXAMPLE)
+def blocked_for_good(rng: random.Random, world: SceneNames, where: Where, v: Variant) -> dict[str, Any] | None:
+    """An item to bring, and a corridor every route from it to the goal needs, blocked for good from
+    the first call: the task cannot be done."""
+    found = _transport(rng, world, where)
+    if found is None:
+        return None
+    item, at, location = found
+    scene = world.scene
+    path = route(scene, at, location)
+    if path is None:
+        return None
+    bridges = [(a, b) for a, b in itertools.pairwise(path) if route(scene, at, location, frozenset((a, b))) is None]
+    if not bridges:
+        return None
+    a, b = rng.choice(bridges)
+    block = {"kind": "block_edge", "edge": [a, b], "at_call": 1, "duration": FOREVER, "announce": _announce(rng)}
+    return {"item": item, "location": location, "perturbations": [block]}
