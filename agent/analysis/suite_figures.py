@@ -32,6 +32,7 @@ from robocog.shared.evaluation import AttemptRow, success
 if TYPE_CHECKING:
     from matplotlib.artist import Artist
     from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
 
 FAMILIES_FILE = "suite_families.png"
 CAPABILITIES_FILE = "suite_capabilities.png"
@@ -80,8 +81,17 @@ def score_figure_size(groups: int, n_models: int) -> tuple[float, float]:
 
 
 def draw_scores(scores: Sequence[FamilyRow], path: Path, *, group: str) -> str | None:
+    """`score_figure` into `path`; returns the file name, or None without scores."""
+    fig = score_figure(scores, group=group)
+    if fig is None:
+        return None
+    fig.savefig(path)
+    return path.name
+
+
+def score_figure(scores: Sequence[FamilyRow], *, group: str) -> Figure | None:
     """Success, false-success rate and pass^k per `group` ("family" or "capability") and model, with
-    95% intervals; returns the file name, or None without scores."""
+    95% intervals (each panel's markers are one line per model, x = the score, in `families` order)."""
     if not scores:
         return None
     names = families(scores)
@@ -124,12 +134,11 @@ def draw_scores(scores: Sequence[FamilyRow], path: Path, *, group: str) -> str |
     legend_below(fig, handles, list(who), "model")
     overlap = " (an instance counts under each of its tags)" if group == "capability" else ""
     fig.suptitle(
-        f"Scores per {group}{overlap}: every attempt counted, errored ones as failures; 95% intervals "
+        f"Scores per {group}{overlap}\nevery attempt counted, errored ones as failures; 95% intervals "
         "(Wilson; pass^k: bootstrap)",
         fontsize=10,
     )
-    fig.savefig(path)
-    return path.name
+    return fig
 
 
 def _label(scores: Sequence[FamilyRow], name: str) -> str:
@@ -138,6 +147,15 @@ def _label(scores: Sequence[FamilyRow], name: str) -> str:
 
 
 def draw_memory(rows: Sequence[AttemptRow], path: Path) -> str | None:
+    """`memory_figure` into `path`; returns the file name, or None when it is not drawn."""
+    fig = memory_figure(rows)
+    if fig is None:
+        return None
+    fig.savefig(path)
+    return path.name
+
+
+def memory_figure(rows: Sequence[AttemptRow]) -> Figure | None:
     """Success against the memory iteration, one panel per family wrapping into rows of `WRAP`, one
     line per model with Wilson intervals; None unless a suite's rows span two or more iterations."""
     suite = [r for r in rows if r.family]
@@ -159,8 +177,8 @@ def draw_memory(rows: Sequence[AttemptRow], path: Path) -> str | None:
             xs = [it for it in iterations if cells.get((name, m, it))]
             rates = [sum(cells[(name, m, it)]) / len(cells[(name, m, it)]) for it in xs]
             bounds = [wilson(sum(cells[(name, m, it)]), len(cells[(name, m, it)])) for it in xs]
-            below = [r - b[0] for r, b in zip(rates, bounds, strict=True)]
-            above = [b[1] - r for r, b in zip(rates, bounds, strict=True)]
+            below = [max(0.0, r - b[0]) for r, b in zip(rates, bounds, strict=True)]
+            above = [max(0.0, b[1] - r) for r, b in zip(rates, bounds, strict=True)]
             line = ax.errorbar(
                 xs,
                 rates,
@@ -184,8 +202,7 @@ def draw_memory(rows: Sequence[AttemptRow], path: Path) -> str | None:
             ax.set_xlabel("memory iteration", fontsize=8)
     legend_below(fig, handles, who, "model")
     fig.suptitle("Success against memory iteration per family (95% Wilson intervals)", fontsize=10)
-    fig.savefig(path)
-    return path.name
+    return fig
 
 
 @dataclass(frozen=True)
