@@ -186,16 +186,21 @@ def capability_scores(rows: Sequence[AttemptRow]) -> tuple[FamilyRow, ...]:
     """Every model on every capability tag its rows carry (EmbodiedBench's capability subsets), scored
     like a family (the `family` field holds the tag): an instance counts under each of its tags, so
     the subsets overlap and do not sum to the whole. Empty when no row carries a tag (robocog-v1)."""
-    grouped: dict[tuple[str, str], list[AttemptRow]] = defaultdict(list)
+    out = []
+    for m in dict.fromkeys(r.model for r in rows):
+        groups = capability_groups([r for r in rows if r.model == m])
+        out += [family_row(m, tag, group) for tag, group in groups.items()]
+    return tuple(out)
+
+
+def capability_groups(rows: Sequence[AttemptRow]) -> dict[str, list[AttemptRow]]:
+    """The rows under each capability tag they carry, tags in alphabetical order (the report's
+    "Per capability" and the leaderboard's capability columns group alike)."""
+    grouped: dict[str, list[AttemptRow]] = defaultdict(list)
     for r in rows:
         for tag in r.capabilities:
-            grouped[(r.model, tag)].append(r)
-    tags = sorted({tag for _, tag in grouped})
-    return tuple(family_row(m, t, grouped[(m, t)]) for m in models_of(rows) for t in tags if (m, t) in grouped)
-
-
-def models_of(rows: Sequence[AttemptRow]) -> tuple[str, ...]:
-    return tuple(dict.fromkeys(r.model for r in rows))
+            grouped[tag].append(r)
+    return dict(sorted(grouped.items()))
 
 
 def families(scores: Sequence[FamilyRow]) -> tuple[str, ...]:
