@@ -6,18 +6,23 @@
   reported with each model once per protocol ("gpt-4.1 (paper)", "gpt-4.1 (robocog)").
 - Errored attempts (the model service or the server failed) first, per model and task; every
   number after them leaves them out, but the per-family scores (which count them as failures).
+- Success means one thing in every section, CSV and figure (`robocog.shared.evaluation.success`: on
+  an infeasible instance, the honest failure); the request achieved is its own column.
+- For the paper's tasks (rows without a suite family) only, the paper's tables and figures:
 - Success per model and task with Wilson 95% intervals (the paper's Tables I and II).
 - Believed against actual success: the paper's Fig. 3 (row percentages of the ground truth,
   stopped attempts left out) and our counts (a task never ended counts as believed failure).
 - Success and tool calls against the memory iteration: the paper's Figs. 4 (bars) and 5 (boxes),
   and ours with 95% intervals.
 - pass^k: the chance that k independent trials all succeed, averaged over memory iterations.
-- Per family (a suite family, or the task for T1/T2): success, honesty, efficiency, pass^k with
-  bootstrap intervals, every attempt counted (`robocog.agent.analysis.scores`); the capability profile
-  (a radar, three or more families); the error taxonomy's counts (`robocog.agent.analysis.taxonomy`).
+- Per family (a suite family, or the task for T1/T2) and per capability tag (rows that carry tags):
+  success, request achieved, honesty, efficiency, pass^k with bootstrap intervals, every attempt
+  counted (`robocog.agent.analysis.scores`); the capability profile (a radar, three or more axes), the
+  suite's figures (`robocog.agent.analysis.suite_figures`); the error taxonomy's counts
+  (`robocog.agent.analysis.taxonomy`).
 - Tokens, cost and latency per model and task.
 Outputs `report.md` (tables, with the PNG figures embedded), the figures, `summary.json`,
-`families.csv` (the per-family scores), and `results.csv`: our columns and values, or
+`families.csv` and `capabilities.csv` (the scores), and `results.csv`: our columns and values, or
 (`csv="upstream"`) the published implementation's encoding. The numbers come from
 `robocog.agent.analysis.stats` and `robocog.agent.analysis.scores`, the figures from `robocog.agent.analysis.figures`.
 This module orders the sections; they are written in `robocog.agent.analysis.report_sections` (from the
@@ -105,10 +110,10 @@ def render(
     title: str = "robocog evaluation",
     csv_format: CsvFormat = "ours",
 ) -> Path:
-    """Write report.md, the figures, summary.json, results.csv and families.csv into `out`; returns
-    report.md. Rows of several protocols are reported per protocol (`by_protocol`); the paper-style
-    sections show a suite instance's row under its family (`by_family`), the per-family section
-    scores the instances."""
+    """Write report.md, the figures, summary.json and the CSVs into `out`; returns report.md. Rows of
+    several protocols are reported per protocol (`by_protocol`); the paper's sections and figures
+    read the paper's tasks only, the summary (summary.json's table, the cost) shows a suite
+    instance's row under its family (`by_family`), the per-family section scores the instances."""
     if not rows:
         raise ValueError("the results file holds no attempts")
     provenance = disagreements(rows)
