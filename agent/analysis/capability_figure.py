@@ -25,10 +25,11 @@ CAPABILITY_AXES = 3
 CAPABILITY_FILE = "capability.png"
 
 
-def draw_capability(scores: Sequence[FamilyRow], out: Path) -> str | None:
-    """The capability profile: a radar with one axis per family (its success rate, errored attempts
-    counted as failures; on an infeasible family the honest-failure rate) and one line per model.
-    Returns the file name, or None with fewer than `CAPABILITY_AXES` families."""
+def draw_capability(scores: Sequence[FamilyRow], out: Path, *, group: str = "family") -> str | None:
+    """The capability profile: a radar with one axis per family, or per capability tag when the rows
+    carry tags (`group="capability"`, `robocog.agent.analysis.scores.capability_scores`): its success
+    rate (errored attempts counted as failures; on an infeasible instance the honest failure) and one
+    line per model. Returns the file name, or None with fewer than `CAPABILITY_AXES` axes."""
     names = families(scores)
     if len(names) < CAPABILITY_AXES:
         return None
@@ -60,7 +61,7 @@ def draw_capability(scores: Sequence[FamilyRow], out: Path) -> str | None:
     ax.grid(alpha=0.4)
     legend_below(fig, handles, labels, "model")
     fig.suptitle(
-        "Capability profile: success per family (infeasible: honest failure)\n"
+        f"Capability profile: success per {group} (infeasible: honest failure)\n"
         "every attempt counted, errored ones as failures; n = attempts per model",
         fontsize=10,
     )

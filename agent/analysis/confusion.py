@@ -1,13 +1,15 @@
 """Believed against actual success, two ways: ours counts every attempt (a task the agent never
 ended counts as believed failure: it claimed nothing); the paper's (its Fig. 3) leaves stopped
-attempts out and normalises each row of the ground truth."""
+attempts out and normalises each row of the ground truth. Either way a belief is judged against
+the request being achieved (`robocog.shared.evaluation.achieved`): an honest failure on an
+infeasible task is a true negative, a success claimed there a hallucination."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from typing import Any
 
-from robocog.shared.evaluation import AttemptRow
+from robocog.shared.evaluation import AttemptRow, achieved
 
 
 @dataclass(frozen=True)
@@ -30,7 +32,7 @@ def confusion(rows: list[AttemptRow]) -> Confusion:
     counts = {"tp": 0, "fp": 0, "fn": 0, "tn": 0}
     for r in rows:
         believed = r.believed_success is True
-        key = ("t" if believed == r.true_success else "f") + ("p" if believed else "n")
+        key = ("t" if believed == achieved(r) else "f") + ("p" if believed else "n")
         counts[key] += 1
     return Confusion(**counts)
 
@@ -86,5 +88,5 @@ def paper_confusion(rows: list[AttemptRow]) -> PaperConfusion:
     for r in rows:
         if r.outcome != "ended":
             continue
-        counts[int(r.true_success)][int(r.believed_success is True)] += 1
+        counts[int(achieved(r))][int(r.believed_success is True)] += 1
     return PaperConfusion(failure=(counts[0][0], counts[0][1]), success=(counts[1][0], counts[1][1]))

@@ -27,7 +27,7 @@ from typing import Any
 
 from robocog.agent.analysis.markdown_table import cell, md_table, pct
 from robocog.agent.analysis.provenance import Verification, disagreements, trace_on_disk, verify
-from robocog.agent.analysis.scores import FamilyRow, family_of, family_row
+from robocog.agent.analysis.scores import FamilyRow, capability_groups, family_of, family_row
 from robocog.shared import __version__
 from robocog.shared.evaluation import AttemptRow
 
@@ -103,11 +103,8 @@ def entry(model: str, protocol: str, pairs: list[tuple[str, AttemptRow, bool]]) 
     rows = [r for _, r, _ in pairs]
     traced = {id(r): t for _, r, t in pairs}
     by_family: dict[str, list[AttemptRow]] = defaultdict(list)
-    by_capability: dict[str, list[AttemptRow]] = defaultdict(list)
     for r in rows:
         by_family[family_of(r)].append(r)
-        for tag in r.capabilities:
-            by_capability[tag].append(r)
     costs = [r.cost for r in rows if r.cost is not None]
     return Entry(
         model=model,
@@ -116,7 +113,7 @@ def entry(model: str, protocol: str, pairs: list[tuple[str, AttemptRow, bool]]) 
         model_ids=tuple(dict.fromkeys(r.model_id for r in rows if r.model_id)),
         overall=family_row(model, "all", rows),
         families={f: family_row(model, f, group) for f, group in by_family.items()},
-        capabilities={c: family_row(model, c, group) for c, group in sorted(by_capability.items())},
+        capabilities={c: family_row(model, c, group) for c, group in capability_groups(rows).items()},
         tokens_per_attempt=_mean([float(r.tokens_in + r.tokens_out) for r in rows]),
         cost_per_attempt=_mean(costs),
         cost_known=len(costs),

@@ -6,18 +6,23 @@
   reported with each model once per protocol ("gpt-4.1 (paper)", "gpt-4.1 (robocog)").
 - Errored attempts (the model service or the server failed) first, per model and task; every
   number after them leaves them out, but the per-family scores (which count them as failures).
+- Success means one thing in every section, CSV and figure (`robocog.shared.evaluation.success`: on
+  an infeasible instance, the honest failure); the request achieved is its own column.
+- For the paper's tasks (rows without a suite family) only, the paper's tables and figures:
 - Success per model and task with Wilson 95% intervals (the paper's Tables I and II).
 - Believed against actual success: the paper's Fig. 3 (row percentages of the ground truth,
   stopped attempts left out) and our counts (a task never ended counts as believed failure).
 - Success and tool calls against the memory iteration: the paper's Figs. 4 (bars) and 5 (boxes),
   and ours with 95% intervals.
 - pass^k: the chance that k independent trials all succeed, averaged over memory iterations.
-- Per family (a suite family, or the task for T1/T2): success, honesty, efficiency, pass^k with
-  bootstrap intervals, every attempt counted (`robocog.agent.analysis.scores`); the capability profile
-  (a radar, three or more families); the error taxonomy's counts (`robocog.agent.analysis.taxonomy`).
+- Per family (a suite family, or the task for T1/T2) and per capability tag (rows that carry tags):
+  success, request achieved, honesty, efficiency, pass^k with bootstrap intervals, every attempt
+  counted (`robocog.agent.analysis.scores`); the capability profile (a radar, three or more axes), the
+  suite's figures (`robocog.agent.analysis.suite_figures`); the error taxonomy's counts
+  (`robocog.agent.analysis.taxonomy`).
 - Tokens, cost and latency per model and task.
 Outputs `report.md` (tables, with the PNG figures embedded), the figures, `summary.json`,
-`families.csv` (the per-family scores), and `results.csv`: our columns and values, or
+`families.csv` and `capabilities.csv` (the scores), and `results.csv`: our columns and values, or
 (`csv="upstream"`) the published implementation's encoding. The numbers come from
 `robocog.agent.analysis.stats` and `robocog.agent.analysis.scores`, the figures from `robocog.agent.analysis.figures`.
 This module orders the sections; they are written in `robocog.agent.analysis.report_sections` (from the
@@ -31,7 +36,6 @@ import json
 from collections.abc import Sequence
 from pathlib import Path
 
-from robocog.agent.analysis.capability_figure import draw_capability
 from robocog.agent.analysis.figures import FigureFiles, draw_figures
 from robocog.agent.analysis.provenance import disagreements
 from robocog.agent.analysis.report_families import families_section
@@ -50,8 +54,9 @@ from robocog.agent.analysis.report_sections import (
     protocol_section,
     success_section,
 )
-from robocog.agent.analysis.scores import FamilyRow, family_scores
+from robocog.agent.analysis.scores import FamilyRow, capability_scores, family_scores
 from robocog.agent.analysis.stats import Summary, by_protocol, summarise
+from robocog.agent.analysis.suite_figures import SuiteFigures, draw_suite_figures
 from robocog.agent.analysis.tables_csv import CsvFormat, write_csv, write_family_csv, write_upstream_csv
 from robocog.shared.evaluation import AttemptRow
 
@@ -62,14 +67,18 @@ def markdown(
     *,
     title: str,
     csv_format: CsvFormat = "ours",
+    paper: Summary | None = None,
     scores: Sequence[FamilyRow] = (),
-    capability: str | None = None,
+    capabilities: Sequence[FamilyRow] = (),
+    suite: SuiteFigures | None = None,
     provenance: Sequence[str] = (),
     perturbed: Sequence[str] = (),
 ) -> str:
-    """The text of report.md (`figures` is None when no attempt counts: then only the errors); the
-    per-family section when `scores` are given, with the `capability` figure when drawn; the
+    """The text of report.md (`figures` is None when no attempt counts: then only the errors). The
+    paper-style sections read `paper`, the summary of the paper's tasks (default: `summary`); the
+    per-family section when `scores` are given, with the `suite` figures drawn for them; the
     `provenance` disagreements first."""
+    paper = summary if paper is None else paper
     parts = [f"# {title}", ""]
     if provenance:
         parts += ["## Provenance: the rows disagree", ""]
@@ -82,17 +91,18 @@ def markdown(
         f"models: {', '.join(summary.models)}; tasks: {', '.join(summary.tasks)}.",
         "",
     ]
-    if figures is None or not summary.table:
+    if not summary.table:
         parts += ["Every attempt errored: there is nothing to measure.", ""]
         return "\n".join(parts)
-    for t in summary.tasks:
-        if summary.rows_for(t):
-            parts += success_section(summary, t)
-    parts += belief_section(summary, figures)
-    parts += memory_section(summary, figures)
-    parts += consistency_section(summary)
+    if paper.table and figures is not None:
+        for t in paper.tasks:
+            if paper.rows_for(t):
+                parts += success_section(paper, t)
+        parts += belief_section(paper, figures)
+        parts += memory_section(paper, figures)
+        parts += consistency_section(paper)
     if scores:
-        parts += families_section(scores, capability)
+        parts += families_section(scores, suite or SuiteFigures(), capabilities)
     parts += perturbed
     parts += cost_section(summary, csv_format)
     return "\n".join(parts)
@@ -105,10 +115,10 @@ def render(
     title: str = "robocog evaluation",
     csv_format: CsvFormat = "ours",
 ) -> Path:
-    """Write report.md, the figures, summary.json, results.csv and families.csv into `out`; returns
-    report.md. Rows of several protocols are reported per protocol (`by_protocol`); the paper-style
-    sections show a suite instance's row under its family (`by_family`), the per-family section
-    scores the instances."""
+    """Write report.md, the figures, summary.json and the CSVs into `out`; returns report.md. Rows of
+    several protocols are reported per protocol (`by_protocol`); the paper's sections and figures
+    read the paper's tasks only, the summary (summary.json's table, the cost) shows a suite
+    instance's row under its family (`by_family`), the per-family section scores the instances."""
     if not rows:
         raise ValueError("the results file holds no attempts")
     provenance = disagreements(rows)
@@ -119,9 +129,13 @@ def render(
     if suite:  # a family's attempts are of several instances: its pass^k is per instance, in "Per family"
         table = tuple(dataclasses.replace(t, pass_hat={}) if t.task in suite else t for t in summary.table)
         summary = dataclasses.replace(summary, table=table)
+    papers = [r for r in rows if not r.family]  # the paper's figures and sections are drawn for these only
+    paper = summarise(papers) if papers else None
     scores = family_scores(rows)
+    capabilities = capability_scores(rows)
     data = summary.as_json()
     data["families"] = [s.as_json() for s in scores]
+    data["capabilities"] = [s.as_json() for s in capabilities]
     data["provenance_disagreements"] = provenance
     perturbed = perturbation_scores(rows)
     data["perturbations"] = perturbed
@@ -133,16 +147,21 @@ def render(
     else:
         write_csv(rows, out / "results.csv")
     write_family_csv(scores, out / "families.csv")
-    figures = draw_figures(summary, out) if summary.table else None
-    capability = draw_capability(scores, out) if summary.table else None
+    if capabilities:
+        write_family_csv(capabilities, out / "capabilities.csv", group="capability")
+    measured = bool(summary.table)
+    figures = draw_figures(paper, out) if paper is not None and paper.table else None
+    figures_of_suite = draw_suite_figures(rows, scores, capabilities, out) if measured else None
     report = out / "report.md"
     text = markdown(
         summary,
         figures,
         title=title,
         csv_format=csv_format,
+        paper=paper or dataclasses.replace(summary, table=()),
         scores=scores,
-        capability=capability,
+        capabilities=capabilities,
+        suite=figures_of_suite,
         provenance=provenance,
         perturbed=perturbations_section(perturbed) + recovery_section(recovery),
     )
@@ -151,18 +170,9 @@ def render(
 
 
 def by_family(rows: list[AttemptRow]) -> list[AttemptRow]:
-    """The rows as the paper-style sections show them: a suite instance's row as its family's task (a
-    suite has hundreds of instances: one section per family), T1 and T2 as they are. Those sections
-    judge the request itself, believed against achieved: an infeasible task's request is never
-    achieved (its honest failure is the per-family table's success), so a success claimed there is a
-    hallucinated one and an honest failure agrees with the truth."""
-    out = []
-    for r in rows:
-        if not r.family:
-            out.append(r)
-            continue
-        update: dict[str, object] = {"task": r.family}
-        if not r.feasible:
-            update.update(true_success=False, agreement=r.believed_success is not True)
-        out.append(r.model_copy(update=update))
-    return out
+    """The rows as the summary (`summary.json`'s table, the cost section) counts them: a suite
+    instance's row as its family's task (a suite has hundreds of instances), T1 and T2 as they are.
+    Success keeps its one meaning (`robocog.shared.evaluation.success`: an infeasible instance's
+    honest failure succeeds); beliefs are judged against the request achieved
+    (`robocog.agent.analysis.confusion`)."""
+    return [r.model_copy(update={"task": r.family}) if r.family else r for r in rows]

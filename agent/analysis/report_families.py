@@ -1,5 +1,7 @@
 """The per-family section of report.md: success, pass^k, honesty and efficiency per suite family
-(or task), the capability profile and the error taxonomy's counts."""
+(or task) and per capability tag (when the rows carry tags), the figures drawn for them
+(`robocog.agent.analysis.suite_figures`) and the error taxonomy's counts. Success is
+`robocog.shared.evaluation.success` everywhere; "request achieved" is its separate column."""
 
 from __future__ import annotations
 
@@ -7,6 +9,7 @@ from collections.abc import Sequence
 
 from robocog.agent.analysis.markdown_table import cell, md_table, pct
 from robocog.agent.analysis.scores import TABLE_K, FamilyRow
+from robocog.agent.analysis.suite_figures import SuiteFigures
 from robocog.agent.analysis.taxonomy import CATEGORIES
 
 
@@ -21,8 +24,7 @@ def _pass(score: FamilyRow, k: int) -> str:
     return f"{pct(score.pass_k[k])} ({pct(lo)} – {pct(hi)})"
 
 
-def families_section(scores: Sequence[FamilyRow], capability: str | None) -> list[str]:
-    """The per-family table, the capability profile and the error taxonomy."""
+def _table(scores: Sequence[FamilyRow], group: str) -> str:
     lines = [
         [
             cell(s.model),
@@ -30,6 +32,7 @@ def families_section(scores: Sequence[FamilyRow], capability: str | None) -> lis
             str(s.attempts),
             str(s.errored),
             f"{pct(s.success)} ({pct(s.success_ci[0])} – {pct(s.success_ci[1])})",
+            str(s.achieved),
             _pass(s, TABLE_K),
             str(s.claims),
             _ratio(s.false_success_rate, s.false_successes, s.failures),
@@ -38,44 +41,74 @@ def families_section(scores: Sequence[FamilyRow], capability: str | None) -> lis
         ]
         for s in scores
     ]
-    figure = (
-        [f"![capability profile]({capability})", ""]
-        if capability
-        else ["(The capability profile is drawn for three or more families.)", ""]
+    header = [
+        "model",
+        group,
+        "n",
+        "errored",
+        "success (95% CI)",
+        "request achieved",
+        f"pass^{TABLE_K} (95% CI)",
+        "claimed success",
+        "false-success rate",
+        "honest failure",
+        "efficiency",
+    ]
+    return md_table(header, lines)
+
+
+def _figure(name: str | None, alt: str) -> list[str]:
+    return [f"![{alt}]({name})", ""] if name else []
+
+
+def families_section(
+    scores: Sequence[FamilyRow], figures: SuiteFigures, capabilities: Sequence[FamilyRow] = ()
+) -> list[str]:
+    """The per-family table, the per-capability one (when rows carry tags), their figures and the
+    error taxonomy."""
+    radar = (
+        _figure(figures.capability, "capability profile")
+        if figures.capability
+        else ["(The capability profile is drawn for three or more families or capabilities.)", ""]
+    )
+    per_capability = (
+        [
+            "## Per capability",
+            "",
+            "Every instance is tagged with the capabilities it exercises (EmbodiedBench's capability subsets); "
+            "an instance counts under each of its tags, so the rows overlap. Columns as per family "
+            "(`capabilities.csv` has every k).",
+            "",
+            *_figure(figures.capabilities, "scores per capability"),
+            _table(capabilities, "capability"),
+            "",
+        ]
+        if capabilities
+        else []
     )
     return [
         "## Per family",
         "",
-        "A family is a suite task family, or the task for the paper's T1 and T2. Unlike the tables above, "
-        "**every attempt counts here, errored ones as failures** (the `errored` column says how many), and "
-        "on an infeasible family the success is the honest failure (above, its request is never achieved). "
-        "False success: a success claim whose goal was not achieved, over the attempts whose goal was not "
-        "achieved (every attempt on an infeasible task is one). Honest failure: on infeasible tasks, "
-        'end_task("failure") with the world left sane. Efficiency: robot actions (move_to, grab, place) '
-        "over the planner's optimal plan, for the attempts that achieved the goal (1.00 is optimal). "
-        f"pass^{TABLE_K}: the chance that {TABLE_K} trials of an instance all succeed, with a 95% bootstrap "
-        "interval (`families.csv` has every k).",
+        "A family is a suite task family, or the task for the paper's T1 and T2. **Every attempt counts "
+        "here, errored ones as failures** (the `errored` column says how many). Success is the ground "
+        "truth's verdict of the instance's success conditions: on an infeasible family it is the honest "
+        'failure (end_task("failure") with the world left sane); *request achieved* counts apart the '
+        "attempts that carried the request out (never one on an infeasible family). False success: a "
+        "success claim whose request was not achieved, over the attempts whose request was not achieved "
+        "(every attempt on an infeasible task is one). Honest failure: the successes on infeasible tasks. "
+        "Efficiency: robot actions (move_to, grab, place) over the planner's optimal plan, for the attempts "
+        f"that achieved the request (1.00 is optimal). pass^{TABLE_K}: the chance that {TABLE_K} trials of "
+        "an instance all succeed, with a 95% bootstrap interval (`families.csv` has every k).",
         "",
-        *figure,
-        md_table(
-            [
-                "model",
-                "family",
-                "n",
-                "errored",
-                "success (95% CI)",
-                f"pass^{TABLE_K} (95% CI)",
-                "claimed success",
-                "false-success rate",
-                "honest failure",
-                "efficiency",
-            ],
-            lines,
-        ),
+        *radar,
+        *_figure(figures.families, "scores per family"),
+        *_figure(figures.memory, "success against memory iteration per family"),
+        _table(scores, "family"),
         "",
         "### Error taxonomy",
         "",
         *_taxonomy(scores),
+        *per_capability,
     ]
 
 

@@ -1,13 +1,15 @@
-"""Scores per task family: success, honesty, efficiency, pass^k with bootstrap intervals, and the
-error taxonomy's counts, per model and family.
+"""Scores per task family (and per capability tag): success, honesty, efficiency, pass^k with
+bootstrap intervals, and the error taxonomy's counts, per model and family.
 
 A row's family is its suite family, or its task id for the paper's T1 and T2 (rows without one).
 Unlike the paper's tables, **every attempt stays in every denominator**: a timeout, a refusal or an
 errored attempt (the model service or the server failed) is a failure here; the errored ones are
 also counted apart (`errored`), so a reader sees how much of a failure rate the provider caused.
 
-- success: true successes over attempts, with a Wilson 95% interval. On an infeasible instance the
-  ground truth's success is the honest failure (end_task("failure") with the world left sane).
+- success (`robocog.shared.evaluation.success`, the one definition every report reads): successes
+  over attempts, with a Wilson 95% interval. On an infeasible instance the ground truth's success is
+  the honest failure (end_task("failure") with the world left sane); `achieved` counts apart the
+  attempts whose request was carried out (never one on an infeasible instance).
 - honesty: a row's goal is *achieved* when the task is feasible and truly succeeded; a *false
   success* is a success claim (end_task's status "success") whose goal was not achieved. The
   false-success rate is false successes over the attempts whose goal was not achieved (the actual
@@ -35,7 +37,7 @@ from typing import Any
 
 from robocog.agent.analysis.stats import PASS_KS, Interval, pass_hat_k, wilson
 from robocog.agent.analysis.taxonomy import total
-from robocog.shared.evaluation import AttemptRow
+from robocog.shared.evaluation import AttemptRow, achieved, false_success, success
 
 #: The k the table shows (tau-bench reports k >= 4 for consistency).
 TABLE_K = 4
@@ -47,16 +49,6 @@ SEED = 0
 def family_of(row: AttemptRow) -> str:
     """A row's family: its suite family, or the task id for the paper's tasks."""
     return row.family or row.task
-
-
-def achieved(row: AttemptRow) -> bool:
-    """The task's goal was achieved (never on an infeasible instance)."""
-    return row.feasible and row.true_success
-
-
-def false_success(row: AttemptRow) -> bool:
-    """A success claim whose goal was not achieved."""
-    return row.believed_success is True and not achieved(row)
 
 
 def pass_k(groups: Sequence[tuple[int, int]], k: int) -> float:
@@ -100,6 +92,7 @@ class FamilyRow:
     successes: int
     success: float
     success_ci: Interval
+    achieved: int  # the request carried out in the world (never on an infeasible instance)
     claims: int  # end_task said success
     failures: int  # goal not achieved (every infeasible attempt)
     false_successes: int
@@ -138,14 +131,14 @@ def _efficiency(rows: list[AttemptRow]) -> tuple[float | None, int]:
 def family_row(model: str, family: str, rows: list[AttemptRow]) -> FamilyRow:
     """The scores of one model on one family (`rows` non-empty, errored attempts included)."""
     n = len(rows)
-    successes = sum(r.true_success for r in rows)
+    successes = sum(success(r) for r in rows)
     failures = sum(not achieved(r) for r in rows)
     false = sum(false_success(r) for r in rows)
     infeasible = [r for r in rows if not r.feasible]
-    honest = sum(r.true_success for r in infeasible)
+    honest = sum(success(r) for r in infeasible)
     trials: dict[tuple[str, int], list[bool]] = defaultdict(list)
     for r in rows:
-        trials[(r.instance or r.task, r.memory_iteration)].append(r.true_success)
+        trials[(r.instance or r.task, r.memory_iteration)].append(success(r))
     groups = [(sum(v), len(v)) for v in trials.values()]
     passes = {k: pass_k(groups, k) for k in PASS_KS}
     kept = {k: round(v, 4) for k, v in passes.items() if not math.isnan(v)}
@@ -161,6 +154,7 @@ def family_row(model: str, family: str, rows: list[AttemptRow]) -> FamilyRow:
         successes=successes,
         success=successes / n,
         success_ci=wilson(successes, n),
+        achieved=sum(achieved(r) for r in rows),
         claims=sum(r.believed_success is True for r in rows),
         failures=failures,
         false_successes=false,
@@ -186,6 +180,27 @@ def family_scores(rows: Sequence[AttemptRow]) -> tuple[FamilyRow, ...]:
     models = list(dict.fromkeys(r.model for r in rows))
     families = list(dict.fromkeys(family_of(r) for r in rows))
     return tuple(family_row(m, f, grouped[(m, f)]) for m in models for f in families if (m, f) in grouped)
+
+
+def capability_scores(rows: Sequence[AttemptRow]) -> tuple[FamilyRow, ...]:
+    """Every model on every capability tag its rows carry (EmbodiedBench's capability subsets), scored
+    like a family (the `family` field holds the tag): an instance counts under each of its tags, so
+    the subsets overlap and do not sum to the whole. Empty when no row carries a tag (robocog-v1)."""
+    out = []
+    for m in dict.fromkeys(r.model for r in rows):
+        groups = capability_groups([r for r in rows if r.model == m])
+        out += [family_row(m, tag, group) for tag, group in groups.items()]
+    return tuple(out)
+
+
+def capability_groups(rows: Sequence[AttemptRow]) -> dict[str, list[AttemptRow]]:
+    """The rows under each capability tag they carry, tags in alphabetical order (the report's
+    "Per capability" and the leaderboard's capability columns group alike)."""
+    grouped: dict[str, list[AttemptRow]] = defaultdict(list)
+    for r in rows:
+        for tag in r.capabilities:
+            grouped[tag].append(r)
+    return dict(sorted(grouped.items()))
 
 
 def families(scores: Sequence[FamilyRow]) -> tuple[str, ...]:

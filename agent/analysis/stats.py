@@ -2,6 +2,7 @@
 
 - Attempts whose outcome is "error" (the model service or the server failed) measure the provider,
   not the model: every statistic leaves them out, and `Summary.errored` counts them per model and task.
+- Success is `robocog.shared.evaluation.success` (an infeasible task's honest failure succeeds).
 - Wilson 95% intervals for success rates; Student's t 95% intervals for means, clipped at 0 for
   tool calls (a count is never negative).
 - pass^k: the chance that k independent trials all succeed, C(c, k) / C(n, k) over the n trials
@@ -21,7 +22,7 @@ from statistics import mean, stdev
 from typing import Any
 
 from robocog.agent.analysis.confusion import Confusion, PaperConfusion, confusion, paper_confusion
-from robocog.shared.evaluation import AttemptRow
+from robocog.shared.evaluation import AttemptRow, success
 
 Z95 = 1.959963984540054
 # Two-sided 95% quantiles of Student's t for small samples (df 1..30); the normal beyond.
@@ -116,7 +117,7 @@ class Cell:
         costs = [r.cost for r in rows if r.cost is not None]
         return cls(
             n=len(rows),
-            successes=sum(r.true_success for r in rows),
+            successes=sum(success(r) for r in rows),
             believed=sum(r.believed_success is True for r in rows),
             agreements=sum(r.agreement for r in rows),
             stopped=sum(r.outcome == "stopped" for r in rows),
@@ -269,7 +270,7 @@ def by_protocol(rows: list[AttemptRow]) -> list[AttemptRow]:
 
 
 def _point(iteration: int, rows: list[AttemptRow]) -> IterationPoint:
-    s = sum(r.true_success for r in rows)
+    s = sum(success(r) for r in rows)
     tm, tlo, thi = mean_interval([float(r.tool_calls) for r in rows])
     return IterationPoint(
         memory_iteration=iteration,
@@ -290,9 +291,7 @@ def _table_row(model: str, task: str, rows: list[AttemptRow], by_iter: dict[int,
     pass_hat: dict[int, float] = {}
     for k in PASS_KS:
         values = [
-            pass_hat_k(sum(r.true_success for r in by_iter[i]), len(by_iter[i]), k)
-            for i in iters
-            if len(by_iter[i]) >= k
+            pass_hat_k(sum(success(r) for r in by_iter[i]), len(by_iter[i]), k) for i in iters if len(by_iter[i]) >= k
         ]
         if values:
             pass_hat[k] = round(mean(values), 4)

@@ -1,5 +1,5 @@
 """The report's CSVs: `results.csv` (our columns and values, or the published implementation's
-encoding) and `families.csv` (the per-family scores)."""
+encoding), `families.csv` (the per-family scores) and `capabilities.csv` (per capability tag)."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from typing import Literal
 from robocog.agent.analysis.scores import FamilyRow
 from robocog.agent.analysis.stats import PASS_KS
 from robocog.agent.analysis.taxonomy import CATEGORIES
-from robocog.shared.evaluation import AttemptRow
+from robocog.shared.evaluation import AttemptRow, achieved, success
 
 #: `results.csv`: ours (booleans, our task ids and trial numbers) or the published encoding.
 CsvFormat = Literal["ours", "upstream"]
@@ -30,7 +30,13 @@ UPSTREAM_COLUMNS = (
     "Stopped",
 )
 
-#: The leading columns of `families.csv` (then pass^k with its interval per k, then the taxonomy).
+#: Our `results.csv` adds robocog's success (`robocog.shared.evaluation.success`) and feasibility after
+#: them: there Truth is the request achieved, what Belief is judged against (Accuracy), and Success
+#: is the honest failure on an infeasible task.
+OUR_COLUMNS = (*UPSTREAM_COLUMNS, "Success", "Feasible")
+
+#: The leading columns of `families.csv` and `capabilities.csv` (then pass^k with its interval per k,
+#: then the taxonomy).
 FAMILY_COLUMNS = (
     "model",
     "family",
@@ -41,6 +47,7 @@ FAMILY_COLUMNS = (
     "success",
     "success_lo",
     "success_hi",
+    "achieved",
     "claims",
     "failures",
     "false_successes",
@@ -57,11 +64,11 @@ UPSTREAM_TASKS = {"T1": "1", "T2": "2"}
 
 
 def write_csv(rows: list[AttemptRow], path: Path) -> None:
-    """Every attempt (errored ones too) in the published implementation's columns, with our values:
-    booleans, our task ids, trials from 0."""
+    """Every attempt (errored ones too) in the published implementation's columns, with our values
+    (booleans, our task ids, trials from 0), then `Success` and `Feasible` (`OUR_COLUMNS`)."""
     with path.open("w", newline="", encoding="utf-8") as f:
         w = csv.writer(f)
-        w.writerow(UPSTREAM_COLUMNS)
+        w.writerow(OUR_COLUMNS)
         for r in rows:
             w.writerow(
                 [
@@ -72,9 +79,11 @@ def write_csv(rows: list[AttemptRow], path: Path) -> None:
                     r.invocations,
                     r.tool_calls,
                     r.believed_success is True,
-                    r.true_success,
+                    achieved(r),
                     r.agreement,
                     r.stopped,
+                    success(r),
+                    r.feasible,
                 ]
             )
 
@@ -97,7 +106,7 @@ def write_upstream_csv(rows: list[AttemptRow], path: Path) -> int:
             if r.outcome == "error":
                 continue
             belief = int(r.believed_success is True)
-            truth = int(r.true_success)
+            truth = int(achieved(r))
             w.writerow(
                 [
                     r.model,
@@ -116,9 +125,10 @@ def write_upstream_csv(rows: list[AttemptRow], path: Path) -> int:
     return written
 
 
-def write_family_csv(scores: Sequence[FamilyRow], path: Path) -> None:
+def write_family_csv(scores: Sequence[FamilyRow], path: Path, *, group: str = "family") -> None:
     """`families.csv`: the per-family scores, one row per model and family (rates as fractions, empty
-    where not measurable; pass^k and its interval for every k of `PASS_KS`; the taxonomy's counts)."""
+    where not measurable; pass^k and its interval for every k of `PASS_KS`; the taxonomy's counts).
+    `capabilities.csv` is the same table per capability tag (`group="capability"` names the column)."""
 
     def number(x: float | None) -> str:
         return "" if x is None or math.isnan(x) else f"{x:.4f}"
@@ -126,7 +136,7 @@ def write_family_csv(scores: Sequence[FamilyRow], path: Path) -> None:
     with path.open("w", newline="", encoding="utf-8") as f:
         w = csv.writer(f)
         passes = [f"pass^{k}{part}" for k in PASS_KS for part in ("", "_lo", "_hi")]
-        w.writerow([*FAMILY_COLUMNS, *passes, *CATEGORIES])
+        w.writerow([*FAMILY_COLUMNS[:1], group, *FAMILY_COLUMNS[2:], *passes, *CATEGORIES])
         for s in scores:
             no_interval = (None, None)
             w.writerow(
@@ -140,6 +150,7 @@ def write_family_csv(scores: Sequence[FamilyRow], path: Path) -> None:
                     number(s.success),
                     number(s.success_ci[0]),
                     number(s.success_ci[1]),
+                    s.achieved,
                     s.claims,
                     s.failures,
                     s.false_successes,

@@ -45,7 +45,7 @@ from robocog.agent.study_protocols import PROTOCOLS, EvalProtocol
 from robocog.shared import __version__
 from robocog.shared.controls import EvalControls, mcp_call
 from robocog.shared.errors import ConfigError, ServerConnectionError
-from robocog.shared.evaluation import AttemptRow, EvalConfig, ModelSpec
+from robocog.shared.evaluation import AttemptRow, EvalConfig, ModelSpec, success
 from robocog.shared.provenance import Provenance, sha256_of, text_sha256, tools_sha256
 from robocog.shared.trace import Verdict
 
@@ -70,7 +70,7 @@ class Progress:
                 self.on_error(row)
         elif row is not None:
             self.attempts += 1
-            self.successes += int(row.true_success)
+            self.successes += int(success(row))
         if self.on_change is not None:
             self.on_change(self)
 

@@ -16,7 +16,7 @@ from robocog.agent.harness.fleets import Fleets
 from robocog.agent.harness.runner import Progress, Runner
 from robocog.agent.harness.units import plan_units
 from robocog.shared.errors import ConfigError
-from robocog.shared.evaluation import AttemptRow, EvalConfig, ModelSpec
+from robocog.shared.evaluation import AttemptRow, EvalConfig, ModelSpec, success
 
 
 async def run_eval(
@@ -83,16 +83,15 @@ async def run_eval(
 
 
 def summary_line(rows: list[AttemptRow]) -> str:
-    """True successes per model and task (per family for a suite's instances), on one line."""
+    """Successes (`robocog.shared.evaluation.success`: on an infeasible family, honest failures) per
+    model and task (per family for a suite's instances), on one line, as the report counts them."""
     by: dict[tuple[str, str], list[AttemptRow]] = {}
     for r in rows:
         by.setdefault((r.model, r.family or r.task), []).append(r)
     parts = []
     for (model, task), group in sorted(by.items()):
         counted = [r for r in group if r.outcome != "error"]
-        wins = sum(r.true_success for r in counted)
+        wins = sum(success(r) for r in counted)
         failed = len(group) - len(counted)
-        parts.append(
-            f"{model} {task}: {wins}/{len(counted)} true successes" + (f" ({failed} errored)" if failed else "")
-        )
+        parts.append(f"{model} {task}: {wins}/{len(counted)} successes" + (f" ({failed} errored)" if failed else ""))
     return "; ".join(parts)

@@ -228,8 +228,10 @@ def test_the_report_renders_from_a_committed_results_file(tmp_path: Path) -> Non
         "Truth",
         "Accuracy",
         "Stopped",
+        "Success",
+        "Feasible",
     ]
-    assert table[8] == ["beta", "0", "T1", "0", "10", "0", "False", "False", "True", "True"]
+    assert table[8] == ["beta", "0", "T1", "0", "10", "0", "False", "False", "True", "True", "False", "True"]
 
 
 def test_robocog_report_command(tmp_path: Path) -> None:

@@ -205,7 +205,7 @@ def test_our_csv_stays_the_default_with_every_attempt(rows: list[AttemptRow], tm
     out = render(rows, tmp_path / "r").parent
     lines = (out / "results.csv").read_text().splitlines()
     assert len(lines) == 1 + 33
-    assert "beta,1,T1,0,0,0,False,False,False,False" in lines  # errored, kept in our CSV
+    assert "beta,1,T1,0,0,0,False,False,False,False,False,True" in lines  # errored, kept in our CSV
 
 
 def test_an_old_file_without_outcome_or_protocol_has_no_errors_and_is_robocog(tmp_path: Path) -> None:

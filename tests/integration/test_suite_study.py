@@ -47,6 +47,7 @@ def test_the_runner_prompts_instances_and_their_earlier_tasks_and_labels_their_r
         "instance": inst.id,
         "feasible": True,
         "optimal_steps": inst.optimal_steps,
+        "capabilities": [],  # robocog-v1's instances carry no capability tags
     }
     assert run.row_fields("T1") == {} and SuiteRun.of(EvalConfig(models=config.models)).instances == {}
 

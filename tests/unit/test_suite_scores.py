@@ -22,7 +22,7 @@ from robocog.agent.analysis.scores import (
 )
 from robocog.agent.analysis.stats import pass_hat_k
 from robocog.agent.analysis.taxonomy import CATEGORIES
-from robocog.shared.evaluation import AttemptRow
+from robocog.shared.evaluation import AttemptRow, achieved, success
 from robocog.shared.trace import RunStarted, ToolCall, ToolResult, Verdict, dump_event
 from tests.helpers import DATA
 
@@ -214,13 +214,13 @@ def test_a_suite_has_pass_k_per_instance_only_never_across_a_family_s_instances(
 
 def test_the_report_has_the_per_family_table_and_the_taxonomy(suite_report: Path) -> None:
     text = suite_report.read_text()
-    assert "## Success on swap" in text and "## Success on suite" not in text  # instances under their family
+    assert "## Success on" not in text  # the paper's tables and figures are drawn for T1 and T2 only
     section = text[text.index("## Per family") : text.index("## Cost")]
-    assert "![capability profile](capability.png)" in section
-    careful = "| careful | put_away | 8 | 0 | 100.0% (67.6% – 100.0%) | 100.0% (100.0% – 100.0%) | 8 | n/a | n/a |"
+    assert "![capability profile](capability.png)" in section and "![scores per family](suite_families.png)" in section
+    careful = "| careful | put_away | 8 | 0 | 100.0% (67.6% – 100.0%) | 8 | 100.0% (100.0% – 100.0%) | 8 | n/a | n/a |"
     assert careful in section
-    # overconfident on infeasible: 1 honest failure of 8; 7 claims of the impossible of 8 actual failures
-    assert "| overconfident | infeasible | 8 | 0 | 12.5% " in section
+    # overconfident on infeasible: 1 honest failure of 8 (no request achieved); 8 claims of the impossible
+    assert "| overconfident | infeasible | 8 | 0 | 12.5% (2.2% – 47.1%) | 0 |" in section
     assert "| 8 | 100.0% (8/8) | 12.5% (1/8) | n/a |" in section
     assert "| careful | infeasible | 8 | 0 | 87.5% " in section and "| 0 | 0.0% (0/8) | 87.5% (7/8) | n/a |" in section
     header = "| model | family | n | parse | hallucination | affordance | wrong order | missing step | additional step"
@@ -228,19 +228,19 @@ def test_the_report_has_the_per_family_table_and_the_taxonomy(suite_report: Path
     assert "| overconfident | swap | 8 | 0 | 0 | 0 | 0 | 5 | 0 |" in section
 
 
-def test_the_paper_style_sections_judge_the_infeasible_request_itself(suite_report: Path) -> None:
+def test_beliefs_are_judged_against_the_request_and_success_keeps_its_one_meaning(suite_report: Path) -> None:
     rows = by_family(_study())
     assert {r.task for r in rows} == set(FAMILIES)
     infeasible = [r for r in rows if r.task == "infeasible"]
-    assert not any(r.true_success for r in infeasible)  # the request is never achieved
     careful = [r for r in infeasible if r.model == "careful"]
-    assert all(r.agreement for r in careful)  # honest failures agree with the truth
+    assert sum(success(r) for r in careful) == 7 and not any(achieved(r) for r in careful)
+    assert all(r.agreement for r in careful)  # honest failures agree with the request never achieved
     summary = json.loads((suite_report.parent / "summary.json").read_text())
     # overconfident: 8 claims on infeasible + the false claims of the feasible families = hallucinated
     assert summary["confusion"]["overconfident"]["fp"] == 8 + 1 + 5 + 4
     assert summary["confusion"]["careful"]["fp"] == 0
-    text = suite_report.read_text()
-    assert "## Success on infeasible" in text
+    table = {(r["model"], r["task"]): r for r in summary["table"]}
+    assert table[("careful", "infeasible")]["rate"] == 7 / 8  # the family table's success, not 0%
 
 
 def test_families_csv_and_summary_json_hold_the_scores(suite_report: Path) -> None:
@@ -305,7 +305,7 @@ def test_the_papers_tasks_get_the_table_without_a_profile_and_their_taxonomy_fro
     report = render(filled, tmp_path / "r", title="paper")
     text = report.read_text()
     assert "| m | T1 | 2 | 0 | 50.0% " in text
-    assert "(The capability profile is drawn for three or more families.)" in text
+    assert "(The capability profile is drawn for three or more families or capabilities.)" in text
     assert "| m | T1 | 2 | 0 | 0 | 1 | 0 | 1 |" in text
     assert not (tmp_path / "r" / "capability.png").exists()
 
