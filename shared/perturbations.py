@@ -3,8 +3,9 @@
 A `Perturbation` is one event the world makes happen during an episode, in physics:
 
 - `slip`: the held object slips out of the hand while the robot drives with it (during the
-  `on_drive`-th drive with an object in hand, at a seeded point of the way) and comes to rest where
-  physics puts it;
+  `on_drive`-th drive with an object in hand, as it arrives at a seeded location of the way: one it
+  passes or its destination), falls to the floor beside that location, within the arm's reach from
+  there, and comes to rest where physics puts it; the robot drives on;
 - `move_object`: someone moves `object` to the place position `to` (`[location, position]`; default:
   a free floor position drawn from the episode's seed) while the robot is not at the object's
   location and does not hold it;

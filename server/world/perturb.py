@@ -24,6 +24,9 @@ from robocog.shared.perturbations import Perturbation, PerturbationEvent
 
 #: The stream of the world's seed that perturbations draw from (the world's own generator is untouched).
 STREAM = 25
+#: What slips falls this far from the location's point (as far as a floor position lies from its
+#: location's: within the arm's reach from there).
+SLIP_DROP_M = 0.55
 
 
 @dataclass(frozen=True)
@@ -131,44 +134,49 @@ class Perturber:
 
     def travel(self, sim: Sim, path: list[str], progress: ProgressFn | None = None) -> Trip:
         """Drive along `path`, stopping before a blocked edge; a slip due on this drive lets go of the
-        held object at a seeded point of the way, and physics lets it fall and settle."""
+        held object at a location of the way, where it falls beside the robot (`_drop_beside`)."""
         stop = next((i for i, (a, b) in enumerate(itertools.pairwise(path)) if self.blocked(a, b)), None)
         route = path if stop is None else path[: stop + 1]
         slip = self._slip_due(sim) if len(route) > 1 else None  # a drive blocked at once is no drive
         total = sum(sim.map.distance(a, b) for a, b in itertools.pairwise(route))
         driven = 0.0
         if slip is not None and total > 0:
-            at = total * float(self.rng.uniform(0.3, 0.7))
-            for i, (a, b) in enumerate(itertools.pairwise(route)):
-                seg = sim.map.distance(a, b)
-                if driven + seg < at:
-                    driven += actions.drive(sim, [a, b])
-                    if progress is not None:
-                        progress(i + 1, len(route) - 1, f"reached {b}")
-                    continue
-                (ax, ay), (bx, by) = sim.map.points[a], sim.map.points[b]
-                f = (at - driven) / seg if seg else 0.0
-                drop = (ax + (bx - ax) * f, ay + (by - ay) * f)
-                driven += _drive_to(sim, (ax, ay), drop)
-                held = sim.grasp.name if sim.grasp else ""
-                actions.release(sim)
-                driven += _drive_to(sim, drop, (bx, by))
-                if progress is not None:
-                    progress(i + 1, len(route) - 1, f"reached {b}")
-                driven += actions.drive(sim, route[i + 1 :])
-                sim.settle([sim.objects[held].body])
-                where = truth.placement(sim, held)
-                near = f" near {where.location}" if where.location else ""
-                self._record(
-                    slip,
-                    f"The {held} slipped out of the hand between {a} and {b} and fell{near}.",
-                    obj=held,
-                    xyz=where.xyz,
-                )
-                break
+            # It slips as the robot arrives at a seeded location of the way (one it passes, or where it
+            # is going) and falls to the floor beside it, within the arm's reach from there; the robot
+            # drives on. (Let go from the carry pose, above the base, at speed, it bounced off the base
+            # and slid on to rest anywhere, out of reach of every location.)
+            i = int(self.rng.integers(len(route) - 1))
+            driven = actions.drive(sim, route[: i + 2], progress)
+            held = sim.grasp.name if sim.grasp else ""
+            actions.release(sim)
+            spot = route[i + 1]
+            self._drop_beside(sim, held, spot)
+            driven += actions.drive(sim, route[i + 1 :])
+            sim.settle([sim.objects[held].body])
+            where = truth.placement(sim, held)
+            near = f" near {where.location}" if where.location else ""
+            self._record(slip, f"The {held} slipped out of the hand at {spot} and fell{near}.", obj=held, xyz=where.xyz)
         elif len(route) > 1:
             driven = actions.drive(sim, route, progress)
         return Trip(route, driven, None if stop is None else (path[stop], path[stop + 1]))
+
+    def _drop_beside(self, sim: Sim, name: str, location: str) -> None:
+        """Put the object that slipped on the floor `SLIP_DROP_M` from `location`'s point, in the first
+        of eight directions (from a seeded one) where nothing stands, and let physics settle it."""
+        obj = sim.objects[name]
+        c = sim.client
+        low, high = c.getAABB(obj.body)
+        half = [(h - lo) / 2 for lo, h in zip(low, high, strict=True)]
+        x0, y0 = sim.map.points[location]
+        first = int(self.rng.integers(8))
+        for k in range(8):
+            angle = math.tau * ((first + k) % 8) / 8
+            x, y = x0 + SLIP_DROP_M * math.cos(angle), y0 + SLIP_DROP_M * math.sin(angle)
+            box = ([x - half[0], y - half[1], 0.01], [x + half[0], y + half[1], 2 * half[2] + 0.01])
+            if not [b for b, _ in c.getOverlappingObjects(*box) or [] if b not in (obj.body, sim.floor)]:
+                break
+        sim.put(obj, x, y, half[2] + 0.005, float(self.rng.uniform(0, math.tau)))
+        sim.settle([obj.body])
 
     def _slip_due(self, sim: Sim) -> Perturbation | None:
         if sim.grasp is None:
@@ -203,17 +211,6 @@ class Perturber:
                 ended=ended,
             )
         )
-
-
-def _drive_to(sim: Sim, start: tuple[float, float], end: tuple[float, float]) -> float:
-    """Drive the base in a straight line from `start` to `end` (points, not locations); the metres."""
-    robot = sim.robot
-    dist = math.dist(start, end)
-    n = max(1, math.ceil(dist / (sim.robot_spec.base_speed * sim.scene.physics.time_step)))
-    for k in range(1, n + 1):
-        robot.set_base(start[0] + (end[0] - start[0]) * k / n, start[1] + (end[1] - start[1]) * k / n, robot.yaw)
-        sim.step()
-    return dist
 
 
 def close(sim: Sim, name: str) -> None:
