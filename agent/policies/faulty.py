@@ -19,7 +19,8 @@ errors drawn are committed for real, so the server answers them as it would a mo
   claim is the only error, and the taxonomy has no category for it (the verdict scores it: believed
   against true success).
 - `ignored_perturbation`: when the world turns out not as believed (the planner would look again),
-  it looks no more and ends claiming success; it also ends without the final verifying look.
+  it looks no more and ends claiming success; it also ends without the final verifying look (its
+  report then says what it believes, without checking).
 
 Which errors an attempt holds is a function of its seed and the rates (`draws`), and of facts of
 the instance (`injected`): never of the trace, so the truth is known without the taxonomy.
@@ -30,7 +31,7 @@ from __future__ import annotations
 import random
 from collections.abc import Mapping
 from dataclasses import replace
-from typing import Any
+from typing import Any, Literal
 
 from robocog.agent.policies.belief import History, PastCall, read_history
 from robocog.agent.policies.planner import (
@@ -40,6 +41,7 @@ from robocog.agent.policies.planner import (
     PlannerWrapper,
     optimal_plan,
 )
+from robocog.agent.symbolic.rearrangement import satisfied
 
 #: Every class of error the instrument commits, in the order they are drawn.
 CLASSES = (
@@ -155,9 +157,14 @@ class Faulty(PlannerWrapper):
         return planned
 
     def conclude(self, episode: Episode) -> Call:
-        if "ignored_perturbation" not in self.faults:
-            return self._claim(self.inner.conclude(episode))
-        return episode.end("success", episode.summary(len(episode.calls) + 1))
+        step = self.inner.conclude(episode)
+        if step.name == "look_around" and "ignored_perturbation" in self.faults:  # no verifying look
+            belief = episode.belief
+            goals = episode.goals.items()
+            achieved = belief.holding is None and all(satisfied(belief.where.get(o), g) for o, g in goals)
+            status: Literal["success", "failure"] = "success" if achieved and not episode.failures else "failure"
+            step = episode.end(status, episode.summary(len(episode.calls) + 1))
+        return self._claim(step)
 
     def _claim(self, step: Call) -> Call:
         """The end_task call, its honest failure turned into a claimed success with `false_success`."""
