@@ -13,8 +13,9 @@ the taxonomy has no category for are found otherwise:
   (`robocog.agent.analysis.recovery`'s `noticed`): `measure` takes any such function.
 
 The false-success rate over all attempts is checked against the rate the instrument set: the
-expected share of attempts holding a false claim (`missing_step` on a feasible task,
-`false_success` on an infeasible one), which should lie in the Wilson 95% interval.
+expected share of attempts holding a false claim (`missing_step` on a feasible task, or an ignored
+perturbation where one happened, supposing it upsets the goal; `false_success` on an infeasible
+one), which should lie in the Wilson 95% interval.
 """
 
 from __future__ import annotations
@@ -73,7 +74,10 @@ def judge(
         found.add("false_success")
     if detect(events):
         found.add("ignored_perturbation")
-    expected = class_rates["missing_step"] if row.feasible else class_rates["false_success"]
+    expected = class_rates["false_success"]
+    if row.feasible:  # a missing step, or a perturbation ignored, leaves the goal unmet and claims success
+        ignoring = class_rates["ignored_perturbation"] if perturbed else 0.0
+        expected = 1 - (1 - class_rates["missing_step"]) * (1 - ignoring)
     scope = scope_of(feasible=row.feasible, perturbed=perturbed)
     return Attempt(row.task, scope, truth, frozenset(found & scope), false_claim, expected)
 

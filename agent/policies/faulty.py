@@ -120,9 +120,11 @@ def _committed(fault: str, calls: list[PastCall]) -> bool:
     return False
 
 
-def _after_injection(calls: list[PastCall]) -> bool:
-    """The last call was a wrong-order error of ours (its out_of_reach makes the belief stale)."""
-    return bool(calls) and calls[-1].name in ("grab", "place") and _error(calls[-1]) in _ORDER_ERRORS
+def _after_injection(calls: list[PastCall], faults: frozenset[str]) -> bool:
+    """The last call was the wrong-order error this policy committed (its out_of_reach makes the
+    belief stale): the episode's first such error, when `wrong_order` is one of the faults."""
+    order = [i for i, c in enumerate(calls) if c.name in ("grab", "place") and _error(c) in _ORDER_ERRORS]
+    return "wrong_order" in faults and bool(order) and order[0] == len(calls) - 1
 
 
 class Faulty(PlannerWrapper):
@@ -139,7 +141,7 @@ class Faulty(PlannerWrapper):
         if step.name == "end_task":
             return self._claim(step)
         looked = any(c.name == "look_around" for c in history.calls)
-        relook = step.name == "look_around" and looked and not _after_injection(history.calls)
+        relook = step.name == "look_around" and looked and not _after_injection(history.calls, self.faults)
         if relook and "ignored_perturbation" in self.faults:
             summary = f"Task: {history.task.strip()} Done as planned."
             return Call("end_task", {"status": "success", "description": history.task.strip(), "summary": summary})

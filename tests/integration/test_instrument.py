@@ -7,7 +7,8 @@ The floors (0.8) leave room for a rare interaction the instrument cannot rule ou
 grab the server answers without its move_to hint reads as an affordance error), while a category
 that breaks (never counted, or counted on the wrong error) falls far below them: each class has
 about ten committed attempts here, so two misses at most pass. The last test breaks the taxonomy on
-purpose and sees the measure fail.
+purpose and sees the measure fail. robocog-v1 has no perturbations: the ignored perturbation is
+measured on T1 with the mug moved away mid-task.
 """
 
 from __future__ import annotations
@@ -85,6 +86,25 @@ def test_a_broken_taxonomy_fails_the_measure(
     for name in ("affordance", "wrong_order"):
         c = m.score(name)
         assert (c.precision or 0) < FLOOR or (c.recall or 0) < FLOOR, instrument.table(m)
+
+
+def test_an_ignored_perturbation_is_found_where_the_mug_moved(tmp_path: Path) -> None:
+    """T1 with the mug moved away mid-task: the planner notices (its grab fails, it looks again),
+    the instrument ignoring it does not, and claims success; the stand-in detector tells them apart,
+    and the false claims follow the rate."""
+    params = {"rate": 0.0, "rate_ignored_perturbation": RATE}
+    config = EvalConfig.model_validate(
+        {
+            **{"name": "instrument-moved", "tasks": ["T1"], "trials": 6, "memory_iterations": 1, "seed": 0},
+            "perturbations": [{"kind": "move_object", "object": "mug", "at_call": 4}],
+            "models": [{"model": "scripted/faulty", "params": params}],
+        }
+    )
+    rows = asyncio.run(run_eval(config, tmp_path / "r.jsonl"))
+    m = instrument.measure(rows, tmp_path, faulty.rates(params))
+    c = m.score("ignored_perturbation")
+    assert c.true_pos >= 2 and c.false_pos + c.false_neg == 0, instrument.table(m)
+    assert m.recovered, instrument.table(m)
 
 
 def _results(path: Path) -> list[ToolResult]:
