@@ -5,9 +5,11 @@ Per attempt, each class of error is drawn independently (seeded by the attempt's
 the harness derives from the study's seed, the trial, the memory iteration and the task), and the
 errors drawn are committed for real, so the server answers them as it would a model's:
 
-- `hallucination`: a move_to to a location no scene has (`FAKE_LOCATION`), answered
-  `unknown_location`; then the planner carries on.
-- `affordance`: a place with an empty hand at a position where the robot stands (`nothing_held`).
+- `hallucination`: a move_to to a location no scene has (`FAKE_LOCATION`, answered
+  `unknown_location`) or, holding something, a place on a position the location does not have
+  (`FAKE_POSITION`, `unknown_position`), the kind drawn per attempt; then the planner carries on.
+- `affordance`: a place with an empty hand at a position where the robot stands (`nothing_held`)
+  or, holding something, a grab of another object there (`already_holding`), the kind drawn too.
 - `wrong_order`: the grab or place of the plan's next step sent before the move_to it needs
   (`not_at_location`, or `out_of_reach` with the server's move_to hint).
 - `additional_step`: an unneeded move_to the location the robot is already at (a successful robot
@@ -57,6 +59,8 @@ CLASSES = (
 _ACTING = ("hallucination", "affordance", "wrong_order", "additional_step", "missing_step")
 #: A location in no scene.
 FAKE_LOCATION = "Wine Cellar"
+#: A place position no location has.
+FAKE_POSITION = "attic shelf"
 #: The rate of every class when the model's parameters name none.
 DEFAULT_RATE = 0.3
 _ALREADY_AT = "The robot is already at"
@@ -108,9 +112,10 @@ def _error(c: PastCall) -> str | None:
 def _committed(fault: str, calls: list[PastCall]) -> bool:
     """Whether the episode already holds this error (the planner itself never commits one)."""
     if fault == "hallucination":
-        return any(c.arguments.get("location") == FAKE_LOCATION for c in calls)
+        fake = (("location", FAKE_LOCATION), ("position", FAKE_POSITION))
+        return any(c.arguments.get(key) == name for c in calls for key, name in fake)
     if fault == "affordance":
-        return any(c.name == "place" and _error(c) == "nothing_held" for c in calls)
+        return any((c.name, _error(c)) in (("place", "nothing_held"), ("grab", "already_holding")) for c in calls)
     if fault == "wrong_order":
         return any(c.name in ("grab", "place") and _error(c) in _ORDER_ERRORS for c in calls)
     if fault == "additional_step":
@@ -130,9 +135,10 @@ def _after_injection(calls: list[PastCall], faults: frozenset[str]) -> bool:
 class Faulty(PlannerWrapper):
     """The planner committing the errors in `faults` (see the module's docstring)."""
 
-    def __init__(self, inner: Planner, *, faults: frozenset[str]) -> None:
+    def __init__(self, inner: Planner, *, faults: frozenset[str], seed: int | None = None) -> None:
         super().__init__(inner)
         self.faults = faults
+        self.by_hand = random.Random(f"faulty-kind:{seed}").random() < 0.5  # the kind of the two errors
 
     def prepare(self, history: History) -> Call | Episode:
         step = self.inner.prepare(history)
@@ -177,13 +183,18 @@ class Faulty(PlannerWrapper):
     def _commit(self, fault: str, episode: Episode, planned: Call, *, last: bool) -> Call | None:
         """The call committing `fault` now, or None when it cannot be committed at this step."""
         belief = episode.belief
-        if fault == "hallucination":
+        here = belief.positions.get(belief.location) or []
+        if fault == "hallucination" and not self.by_hand:
             return Call("move_to", {"location": FAKE_LOCATION})
+        if fault == "hallucination":  # once something is held where there are positions
+            held = belief.holding is not None and here
+            return Call("place", {"location": belief.location, "position": FAKE_POSITION}) if held else None
+        if fault == "affordance" and self.by_hand:  # once something is held
+            others = [o for o in belief.where if o != belief.holding]
+            return Call("grab", {"object": others[0]}) if belief.holding is not None and others else None
         if fault == "affordance":
-            here = belief.positions.get(belief.location) or []
-            if belief.holding is None and here:
-                return Call("place", {"location": belief.location, "position": here[0]})
-            return None
+            empty = belief.holding is None and here
+            return Call("place", {"location": belief.location, "position": here[0]}) if empty else None
         if fault == "wrong_order":
             if planned.name != "move_to":
                 return None
@@ -202,4 +213,4 @@ class Faulty(PlannerWrapper):
 def decide(messages: list[Any], seed: int | None, class_rates: Mapping[str, float]) -> Call:
     """`scripted/faulty`'s next move for the conversation so far (the attempt's model seed, the rates)."""
     faults = draws(seed, class_rates)
-    return Faulty(Planner(), faults=faults)(read_history(messages))
+    return Faulty(Planner(), faults=faults, seed=seed)(read_history(messages))

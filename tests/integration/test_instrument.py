@@ -65,7 +65,7 @@ def test_the_committed_errors_happen_on_the_server(study: tuple[list[AttemptRow]
         path = base / row.trace
         if path.exists():
             codes |= {str(e.structured.get("error")) for e in _results(path) if e.structured}
-    assert {"unknown_location", "nothing_held", "not_at_location"} <= codes
+    assert {"unknown_location", "unknown_position", "nothing_held", "already_holding", "not_at_location"} <= codes
 
 
 def test_a_broken_taxonomy_fails_the_measure(
