@@ -9,7 +9,7 @@ errors drawn are committed for real, so the server answers them as it would a mo
   `unknown_location`) or, holding something, a place on a position the location does not have
   (`FAKE_POSITION`, `unknown_position`), the kind drawn per attempt; then the planner carries on.
 - `affordance`: a place with an empty hand at a position where the robot stands (`nothing_held`)
-  or, holding something, a grab of another object there (`already_holding`), the kind drawn too.
+  or, holding something, a grab of another object (`already_holding`), the kind drawn too.
 - `wrong_order`: the grab or place of the plan's next step sent before the move_to it needs
   (`not_at_location`, or `out_of_reach` with the server's move_to hint).
 - `additional_step`: an unneeded move_to the location the robot is already at (a successful robot
