@@ -20,14 +20,17 @@ one), which should lie in the Wilson 95% interval.
 
 from __future__ import annotations
 
+import argparse
+import sys
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from robocog.agent.analysis.results_file import load_rows
 from robocog.agent.analysis.stats import wilson
 from robocog.agent.analysis.taxonomy import classify
 from robocog.agent.policies import model_seed
-from robocog.agent.policies.faulty import CLASSES, injected
+from robocog.agent.policies.faulty import CLASSES, injected, rates
 from robocog.shared.evaluation import AttemptRow
 from robocog.shared.trace import Perturbed, ToolCall, TraceEvent, read_trace
 
@@ -161,10 +164,14 @@ def _own_trace(row: AttemptRow, base: Path) -> Path | None:
 
 
 def measure(
-    rows: Sequence[AttemptRow], base: Path, class_rates: Mapping[str, float], detect: Ignored = ignored
+    rows: Sequence[AttemptRow],
+    base: Path,
+    class_rates: Mapping[str, float] | None = None,
+    detect: Ignored = ignored,
 ) -> Measure:
     """The instrument's verdict on a study's rows (traces read relative to `base`, the results
-    file's folder); rows of other models than `scripted/faulty` are left out."""
+    file's folder); rows of other models than `scripted/faulty` are left out. The rates are each
+    row's model parameters (its provenance) unless given."""
     attempts: list[Attempt] = []
     skipped = 0
     for row in rows:
@@ -174,7 +181,8 @@ def measure(
         if path is None:
             skipped += 1
             continue
-        attempts.append(judge(row, read_trace(path), class_rates, detect))
+        given = class_rates or rates(row.provenance.params if row.provenance else {})
+        attempts.append(judge(row, read_trace(path), given, detect))
     return score(attempts, skipped)
 
 
@@ -195,3 +203,16 @@ def table(m: Measure) -> str:
         f"({m.skipped} not run); set {m.set_rate:.3f}: {'recovered' if m.recovered else 'NOT recovered'}"
     )
     return "\n".join(lines)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """`python -m robocog.agent.analysis.instrument RESULTS.jsonl`: the verdict as a table."""
+    parser = argparse.ArgumentParser(description="The taxonomy scored on a study of scripted/faulty.")
+    parser.add_argument("results", type=Path, help="the results file of `robocog eval`")
+    args = parser.parse_args(argv)
+    print(table(measure(load_rows(args.results), args.results.parent)))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

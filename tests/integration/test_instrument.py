@@ -56,6 +56,16 @@ def test_the_taxonomy_finds_what_the_instrument_committed(study: tuple[list[Atte
     assert m.set_rate == RATE and m.recovered, instrument.table(m)
 
 
+def test_the_rates_come_from_the_rows_and_the_command_prints_the_verdict(
+    study: tuple[list[AttemptRow], Path], capsys: pytest.CaptureFixture[str]
+) -> None:
+    rows, base = study
+    assert instrument.measure(rows, base) == instrument.measure(rows, base, faulty.rates(PARAMS))
+    assert instrument.main([str(base / "r.jsonl")]) == 0
+    out = capsys.readouterr().out
+    assert "hallucination" in out and f"set {RATE:.3f}: recovered" in out
+
+
 def test_the_committed_errors_happen_on_the_server(study: tuple[list[AttemptRow], Path]) -> None:
     """The errors are real calls the server refused, with the codes the taxonomy reads."""
     rows, base = study
