@@ -9,6 +9,7 @@ import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
+from robocog.agent.policies import model_seed as model_seed  # re-exported: units.model_seed
 from robocog.shared.evaluation import AttemptRow, EvalConfig, ModelSpec
 
 
@@ -28,12 +29,6 @@ def episode_id(study: str, model: str, seed: int, trial: int, iteration: int, ta
 def unit_namespace(study: str, model: str, trial: int) -> str:
     """The memory namespace of a unit (a model and a trial): its own, whichever robot runs it."""
     return "unit-" + hashlib.sha256(f"{study}\x00{model}\x00{trial}".encode()).hexdigest()[:24]
-
-
-def model_seed(seed: int, trial: int, iteration: int, task: str) -> int:
-    """A seed for the model per attempt (independent draws for stochastic models)."""
-    digest = hashlib.sha256(f"{seed}:{trial}:{iteration}:{task}".encode()).digest()
-    return int.from_bytes(digest[:4], "big")
 
 
 #: The error of an attempt during which the server or the transport died.

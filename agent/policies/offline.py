@@ -4,6 +4,8 @@
 - `scripted/overconfident`: sometimes forgets an object and still reports success. The probability
   is `p` in the completion parameters (default 0.3), seeded by `seed`.
 - `scripted/refuser`: never acts and never ends the task.
+- `scripted/faulty`: commits each error of the taxonomy at a set rate (`rate`, or `rate_<class>`),
+  seeded by `seed` (`robocog.agent.policies.faulty`).
 - Each scripted model takes `latency_s` (seconds per model turn, default 0) and `jitter_s` (a
   uniform draw in [-jitter_s, +jitter_s] added to it, seeded by `seed` and the turn's number, so
   reproducible) in the completion parameters: a study runs "as if" each turn took real time. The
@@ -26,12 +28,13 @@ from functools import cache
 from pathlib import Path
 from typing import Any
 
+from robocog.agent.policies import faulty
 from robocog.agent.policies import is_offline as is_offline  # re-exported: offline.is_offline
 from robocog.agent.policies.belief import as_dict
 from robocog.agent.policies.planner import VARIANTS, Call, decide, is_variant
 from robocog.shared.trace import ModelTurn, read_trace
 
-SCRIPTED_MODELS = VARIANTS
+SCRIPTED_MODELS = (*VARIANTS, "faulty")
 
 
 class OfflineModelError(ValueError):
@@ -159,7 +162,7 @@ def scripted_turn(model: str, messages: list[Any], params: dict[str, Any]) -> tu
     """`scripted/<variant>`'s answer to `messages` (an assistant message) and how long to wait
     before giving it; `OfflineModelError` for an unknown variant or a bad latency."""
     variant = model.split("/")[-1]
-    if not is_variant(variant):
+    if variant != "faulty" and not is_variant(variant):
         known = ", ".join(f"scripted/{v}" for v in SCRIPTED_MODELS)
         raise OfflineModelError(f"unknown scripted model {model!r}; use one of {known}")
     seed = params.get("seed")
@@ -167,7 +170,14 @@ def scripted_turn(model: str, messages: list[Any], params: dict[str, Any]) -> tu
     latency_s, jitter_s = seconds(params, "latency_s", model), seconds(params, "jitter_s", model)
     assistant = [m for m in map(as_dict, messages) if m.get("role") == "assistant"]
     calls_so_far = sum(len(m.get("tool_calls") or []) for m in assistant)
-    call = decide(messages, variant, seed=seed, p=p)
+    if is_variant(variant):
+        call = decide(messages, variant, seed=seed, p=p)
+    else:
+        try:
+            class_rates = faulty.rates(params)
+        except (TypeError, ValueError) as exc:
+            raise OfflineModelError(f"{model}: {exc}") from None
+        call = faulty.decide(messages, seed, class_rates)
     return call_message(call, calls_so_far + 1), turn_delay(latency_s, jitter_s, seed, len(assistant) + 1)
 
 

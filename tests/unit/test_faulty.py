@@ -1,0 +1,60 @@
+"""`scripted/faulty`, the instrument: its rates, its seeded draws, the truth it commits, and the
+stand-in detector of an ignored perturbation."""
+
+from __future__ import annotations
+
+import pytest
+
+from robocog.agent.analysis.instrument import ClassScore, ignored, scope_of
+from robocog.agent.policies import faulty
+from robocog.agent.policies.offline import OfflineModelError, scripted_turn
+from robocog.shared.perturbations import PerturbationEvent
+from robocog.shared.trace import Perturbed, ToolCall
+
+
+def test_rates_take_one_for_all_and_one_per_class() -> None:
+    assert set(faulty.rates({}).values()) == {faulty.DEFAULT_RATE}
+    got = faulty.rates({"rate": 0.2, "rate_hallucination": 1.0, "extra_body": {"rate_affordance": 0.0}})
+    assert got["hallucination"] == 1.0 and got["affordance"] == 0.0 and got["wrong_order"] == 0.2
+    with pytest.raises(ValueError, match="must lie in"):
+        faulty.rates({"rate": 1.5})
+    with pytest.raises(OfflineModelError, match="scripted/faulty"):
+        scripted_turn("scripted/faulty", [], {"rate": "often"})
+
+
+def test_draws_are_seeded_independent_and_near_their_rates() -> None:
+    half = faulty.rates({"rate": 0.5})
+    assert faulty.draws(7, half) == faulty.draws(7, half)
+    assert faulty.draws(7, faulty.rates({"rate": 1.0})) == frozenset(faulty.CLASSES)
+    assert faulty.draws(7, faulty.rates({"rate": 0.0})) == frozenset()
+    # one rate changed leaves the other classes' draws alone
+    other = {**half, "hallucination": 1.0}
+    assert faulty.draws(7, other) - {"hallucination"} == faulty.draws(7, half) - {"hallucination"}
+    n = 2000
+    for c in faulty.CLASSES:
+        share = sum(c in faulty.draws(s, half) for s in range(n)) / n
+        assert 0.45 < share < 0.55, (c, share)
+
+
+def test_the_truth_keeps_what_an_attempt_can_hold() -> None:
+    every = faulty.rates({"rate": 1.0})
+    acting = {"hallucination", "affordance", "wrong_order", "missing_step"}
+    assert faulty.injected(1, every, feasible=True, perturbed=False) == acting
+    assert faulty.injected(1, every, feasible=True, perturbed=True) == acting | {"ignored_perturbation"}
+    assert faulty.injected(1, every, feasible=False, perturbed=True) == {"false_success"}
+    no_missing = {**every, "missing_step": 0.0}
+    assert "additional_step" in faulty.injected(1, no_missing, feasible=True, perturbed=False)
+    assert scope_of(feasible=False, perturbed=False) == {"false_success"}
+
+
+def test_an_ignored_perturbation_has_no_look_after_it() -> None:
+    moved = PerturbationEvent(kind="move_object", call=1, description="The mug moved.", announced=False, object="mug")
+    look = ToolCall(t=2.0, invocation=1, id="c2", name="look_around", arguments={}, raw_arguments="{}")
+    grab = ToolCall(t=1.0, invocation=1, id="c1", name="grab", arguments={"object": "mug"}, raw_arguments="")
+    event = Perturbed(t=1.5, invocation=1, id="c1", event=moved)
+    assert ignored([grab, event]) and not ignored([grab, event, look]) and not ignored([grab, look])
+
+
+def test_a_class_score_without_cases_is_not_measured() -> None:
+    assert ClassScore("x", 0, 0, 0).precision is None and ClassScore("x", 0, 0, 0).recall is None
+    assert ClassScore("x", 3, 1, 0).precision == 0.75 and ClassScore("x", 3, 1, 1).recall == 0.75
