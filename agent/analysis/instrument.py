@@ -26,24 +26,23 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from robocog.agent.analysis.recovery import noticed
 from robocog.agent.analysis.results_file import load_rows
 from robocog.agent.analysis.stats import wilson
 from robocog.agent.analysis.taxonomy import classify
 from robocog.agent.policies import model_seed
 from robocog.agent.policies.faulty import CLASSES, injected, rates
 from robocog.shared.evaluation import AttemptRow
-from robocog.shared.trace import Perturbed, ToolCall, TraceEvent, read_trace
+from robocog.shared.trace import Perturbed, TraceEvent, read_trace
 
 #: A detector of an ignored perturbation in a trace.
 Ignored = Callable[[Sequence[TraceEvent]], bool]
 
 
 def ignored(events: Sequence[TraceEvent]) -> bool:
-    """A perturbation happened and no look_around followed it (the agent acted as if nothing had)."""
-    first = next((i for i, e in enumerate(events) if isinstance(e, Perturbed)), None)
-    if first is None:
-        return False
-    return not any(isinstance(e, ToolCall) and e.name == "look_around" for e in events[first:])
+    """A perturbation happened and the agent did not notice it (the recovery scores' `noticed`: no
+    look, no retry of what it broke, no grab of what it moved, after it)."""
+    return noticed(events) is False
 
 
 def attempt_seed(row: AttemptRow) -> int:
