@@ -7,7 +7,8 @@ condition has two meanings, written once each:
 - its symbolic meaning, here, over names only (the suite generator's and the planner's searches use
   it): `holds` over a `Where` (object -> (location, position), None when in the robot's hand), the
   one at the task's start and the containers open (`closed` asks about them), `objects_named` (the
-  objects it asks to place) and `allowed_spots` (per such object, the place positions that meet it). A test holds the two meanings equal.
+  objects it asks to place) and `allowed_spots` (per such object, the place positions that meet it).
+  A test holds the two meanings equal.
 
 A new kind of condition is a class here (with its symbolic meaning) and its check in
 `robocog.server.world.tasks`, nothing else: the generator and the planner only call these methods.

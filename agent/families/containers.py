@@ -109,13 +109,14 @@ def item_from_cabinet(rng: random.Random, world: SceneNames, where: Where, v: Va
 
 _CONTAINER_TASK = (
     r"^(?:please )?(?:put|place|take|bring|get|fetch|move) (.+?) "
-    r"(into|out of|from) (?:the )?([a-z ]*?(?:drawer|cabinet|fridge))(?:,? and close it| and (?:put|place) it on (.+)| to (.+))?$"
+    r"(into|out of|from) (?:the )?([a-z ]*?(?:drawer|cabinet|fridge))"
+    r"(?:,? and close it| and (?:put|place) it on (.+)| to (.+))?$"
 )
 
 
 @reader(_CONTAINER_TASK, order=35)
 def read_container_task(match: re.Match[str], first: FirstLook, memories: list[dict[str, Any]]) -> Request | None:
-    """"put X into C [and close it]", "take X out of C and put it on F", "bring X from C to L": the
+    """ "put X into C [and close it]", "take X out of C and put it on F", "bring X from C to L": the
     container is one look_around lists under furniture (else this is a plain transport prompt, which
     the bring family's reader reads)."""
     phrase, how, said, onto, to = match.groups()

@@ -21,10 +21,11 @@ from typing import Any
 from robocog.agent.families.bring import other_location
 from robocog.agent.families.containers import choose_container, move_inside
 from robocog.agent.families.put_away import FURNITURE_EXAMPLE
-from robocog.agent.families.reading import FirstLook, Goal, Request, clean, resolve_object
+from robocog.agent.families.reading import FirstLook, Goal, Request, clean, place_named, resolve_object
 from robocog.agent.families.registry import draw, reader
 from robocog.agent.symbolic.world import SceneNames, Where
 from robocog.shared.family_files import Variant
+from robocog.shared.names import name_key
 
 #: How often the object to find starts inside a (closed) container, in a scene that has one.
 INSIDE_SHARE = 0.5
@@ -73,10 +74,13 @@ def hidden_item_to_furniture(rng: random.Random, world: SceneNames, where: Where
     return {"item": item, "furniture": name, "positions": [list(s) for s in spots]}
 
 
-@reader(r"^(?:please )?find (.+?),? and (?:bring|put|place|take|carry|move) it (?:to|on|onto|at) (.+)$", order=5)
+@reader(r"^(?:please )?find (.+?),? and (?:bring|put|place|take|carry|move) it (?:to|on|onto|at) (.+)$", order=50)
 def read_search(match: re.Match[str], first: FirstLook, memories: list[dict[str, Any]]) -> Request | None:
     """An object to find (by name, or a description when it is in view) and the location to take it to,
     both perhaps out of sight: the planner searches for what it has not seen."""
     phrase, place = match.groups()
     found, _ = resolve_object(phrase, first)
-    return Request("search", {found or clean(phrase): Goal(clean(place))}, explore=True)
+    where = place_named(place, first)
+    if where is None or name_key(where.location) not in name_key(place):  # only a full name: the rest is unseen
+        where = Goal(clean(place))
+    return Request("search", {found or clean(phrase): where}, explore=True)

@@ -36,6 +36,7 @@ class Belief:
     containers: dict[str, str] = field(default_factory=dict)  # furniture that opens -> its location
     closed: set[str] = field(default_factory=set)  # the containers believed closed
     seen: set[str] = field(default_factory=set)  # the locations whose contents a look around showed
+    expected: dict[str, str] = field(default_factory=dict)  # object not seen -> the closed container it is in
 
     @classmethod
     def from_look(cls, look: dict[str, Any]) -> Belief:
@@ -69,6 +70,7 @@ class Belief:
             dict(self.containers),
             set(self.closed),
             set(self.seen),
+            dict(self.expected),
         )
 
     def hops_from(self, start: str) -> dict[str, int]:

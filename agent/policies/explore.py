@@ -1,12 +1,11 @@
 """What the planner does about what it cannot see: containers to open, and objects to search for.
 
 A closed container (drawer, cabinet, fridge) hides what is inside and keeps the hand out, and opening
-it needs the hand free. So before it plans the carrying (`robocog.agent.symbolic.rearrangement`,
-which knows nothing of containers) the planner opens what the task needs open: the container a goal
-object is in ("take the X out of the drawer"), the container a goal puts an object into; and once
-every goal is met, it closes what the task asks it to close. Opening first is what an optimal plan
-does too (the hand is free then; carrying an object to a closed container would mean putting it
-down to open it), so the robot's actions stay the generator's optimum (`robocog.agent.symbolic.plans`).
+it needs the hand free. The planner's plan opens what it needs (`robocog.agent.symbolic.rearrangement`
+knows containers as the generator's optimum does, `robocog.agent.symbolic.plans`); this module tells
+it what it cannot see: a goal object the task says is inside a closed container ("take the X out of
+the drawer") is expected there (`ground`). Once every goal is met, the planner closes what the task
+asks it to close (the last place put the robot at that container: one action, as in the optimum).
 
 Under partial observation the task may name an object the robot has not seen ("Find the X and bring
 it to L"). Then it explores: looks around wherever it has not looked, and drives to the nearest (by
@@ -51,9 +50,14 @@ def _lookup(name: str, options: Iterable[str]) -> str:
 
 def ground(request: Request, belief: Belief) -> Request:
     """The request with its goal objects and locations spelled as the belief knows them, where it knows
-    them (a reader writes what the prompt says of what the first look did not show)."""
+    them (a reader writes what the prompt says of what the first look did not show); a goal object not
+    seen that the request says is in a closed container is noted in the belief as expected there."""
     objects, places = belief.objects(), known_names(belief)
     goals = {_lookup(o, objects): replace(g, location=_lookup(g.location, places)) for o, g in request.goals.items()}
+    unseen = [o for o in goals if o not in objects]
+    for box in request.look_in:
+        if box in belief.closed:
+            belief.expected.update({o: box for o in unseen})
     return replace(request, goals=goals)
 
 
@@ -62,11 +66,7 @@ def next_move(request: Request, goals: Mapping[str, Goal], belief: Belief) -> Mo
     if belief.location not in belief.seen:
         return Move("look_around")  # partial observation: a new place is unknown until looked at
     free = belief.holding is None
-    needed = [*request.look_in, *_targets(goals, belief)]
-    shut = next((b for b in needed if b in belief.closed), None)
-    if shut is not None and free:
-        return _at(belief, belief.containers[shut], Move("open", {"furniture": shut}))
-    missing = [o for o in goals if o not in belief.where and o != belief.holding]
+    missing = [o for o in goals if o not in belief.where and o != belief.holding and o not in belief.expected]
     unseen = [g.location for g in goals.values() if g.location not in belief.seen]
     if missing or unseen:
         return _search(belief, missing, unseen, free)
@@ -75,12 +75,6 @@ def next_move(request: Request, goals: Mapping[str, Goal], belief: Belief) -> Mo
     if done and free and to_close is not None:
         return _at(belief, belief.containers.get(to_close, belief.location), Move("close", {"furniture": to_close}))
     return None
-
-
-def _targets(goals: Mapping[str, Goal], belief: Belief) -> list[str]:
-    """The containers the goals put objects into (that are not there yet)."""
-    at = {loc: box for box, loc in belief.containers.items()}
-    return [at[g.location] for o, g in goals.items() if g.location in at and not satisfied(belief.where.get(o), g)]
 
 
 def _at(belief: Belief, location: str, then: Move) -> Move:

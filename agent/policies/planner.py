@@ -31,6 +31,7 @@ import random
 from dataclasses import dataclass, field, replace
 from typing import Any, Literal, TypeGuard
 
+from robocog.agent.policies import explore
 from robocog.agent.policies.belief import (
     UNGRASPABLE_NOTE,
     Belief,
@@ -43,7 +44,6 @@ from robocog.agent.policies.belief import (
     remembered_ungraspable,
     understand,
 )
-from robocog.agent.policies import explore
 from robocog.agent.symbolic import rearrangement
 from robocog.agent.symbolic.rearrangement import HELD, satisfied
 

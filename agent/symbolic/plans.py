@@ -49,10 +49,11 @@ def allowed_spots(success: Sequence[Condition], spots: Sequence[Spot], baseline:
 def optimal_plan(
     world: SceneNames, where: Where, robot: str, success: list[Condition], *, limit: int = PLAN_LIMIT
 ) -> tuple[list[Action], Where, str] | None:
-    """An optimal plan (fewest move_to, grab and place actions) from `where` with the robot at `robot`
-    to a state where `success` holds with the hand empty, every container closed at the start:
-    (actions, where the objects end, where the robot ends); None when no plan of at most `limit` actions exists. Only the objects the task names
-    and those resting on the place positions it names ever move (moving another never helps).
+    """An optimal plan (fewest move_to, grab, place, open and close actions) from `where` with the
+    robot at `robot`, every container closed, to a state where `success` holds with the hand empty:
+    (actions, where the objects end, where the robot ends); None when no plan of at most `limit`
+    actions exists. Only the objects the task names and those resting on the place positions it
+    names ever move (moving another never helps).
     Ties between optimal plans go the same way every time (the search is deterministic)."""
     baseline = dict(where)
     names = {o for c in success for o in c.objects_named()}

@@ -13,8 +13,8 @@ equal (tests/unit/test_symbolic.py).
 
 from __future__ import annotations
 
-from functools import cache, singledispatch
 from collections.abc import Mapping
+from functools import cache, singledispatch
 from pathlib import Path
 from typing import Any
 

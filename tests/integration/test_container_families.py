@@ -31,7 +31,7 @@ name: issue-26
 families: [containers, search]
 scenes: ["house-00[0-3]", kitchen_plus]
 splits:
-  dev: {seed: 26, per_family: 4}
+  dev: {seed: 2, per_family: 5}
 tagged: true
 """
 
@@ -63,10 +63,16 @@ async def robot(tmp_path_factory: pytest.TempPathFactory, instances: dict[str, I
         patch.undo()
 
 
-def test_the_families_draw_tagged_instances_with_containers_closed_at_the_start(
+def test_the_families_draw_tagged_instances_of_every_variant(
     instances: dict[str, Instance],
 ) -> None:
     assert {i.family for i in instances.values()} == {"containers", "search"}
+    variants = {i.variant for i in instances.values() if i.family == "containers"}
+    assert variants == {"put_into", "put_into_and_close", "take_out", "fetch"}  # the seed covers them all
+    hidden = [
+        i for i in instances.values() if i.family == "search" and i.start[i.parameters["item"]].position == "inside"
+    ]
+    assert hidden and "containers" in hidden[0].capabilities  # derived: it starts in a container
     for i in instances.values():
         assert i.feasible and i.optimal_steps > 0
         if i.family == "containers":
@@ -77,7 +83,7 @@ def test_the_families_draw_tagged_instances_with_containers_closed_at_the_start(
             assert " the " in i.prompt and "find the" in i.prompt.lower()
 
 
-@pytest.mark.parametrize("n", range(8))
+@pytest.mark.parametrize("n", range(10))
 async def test_the_oracle_solves_each_instance(robot: Robot, instances: dict[str, Instance], n: int) -> None:
     instance = sorted(instances.values(), key=lambda i: i.id)[n]
     outcome = await run_instance(robot, instance)
@@ -86,3 +92,15 @@ async def test_the_oracle_solves_each_instance(robot: Robot, instances: dict[str
         assert outcome.robot_actions == instance.optimal_steps, (instance.prompt, outcome.summary)
     else:
         assert outcome.robot_actions >= instance.optimal_steps
+
+
+async def test_a_search_for_an_object_that_is_nowhere_ends_in_an_honest_failure(
+    robot: Robot, instances: dict[str, Instance]
+) -> None:
+    search = next(i for i in sorted(instances.values(), key=lambda i: i.id) if i.family == "search")
+    absent = search.model_copy(
+        update={"id": "dev-search-absent", "prompt": "Find the unicorn and bring it to the Front Door."}
+    )
+    instances[absent.id] = absent
+    outcome = await run_instance(robot, absent)
+    assert outcome.believed is False and "did not find the unicorn" in str(outcome.summary), outcome.summary

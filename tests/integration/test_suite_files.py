@@ -42,19 +42,9 @@ def _family_error(tmp_path: Path, text: str, stem: str = "fam") -> str:
 
 def test_the_shipped_families_load_and_the_suite_names_only_them() -> None:
     families = load_families()
-    assert (
-        set(SUITE.families)
-        == set(families)
-        == {
-            "put_away",
-            "swap",
-            "bring",
-            "rearrange",
-            "infeasible",
-            "referring",
-            "memory",
-        }
-    )
+    v1 = {"put_away", "swap", "bring", "rearrange", "infeasible", "referring", "memory"}
+    assert set(SUITE.families) == v1
+    assert set(families) == v1 | {"containers", "search"}  # issue 26's, for robocog-v2
     assert families["infeasible"].feasible is False and families["bring"].feasible is True
 
 
