@@ -81,6 +81,6 @@ def read_search(match: re.Match[str], first: FirstLook, memories: list[dict[str,
     phrase, place = match.groups()
     found, _ = resolve_object(phrase, first)
     where = place_named(place, first)
-    if where is None or name_key(where.location) not in name_key(place):  # only a full name: the rest is unseen
+    if where is None or name_key(where.location) != name_key(place):  # the very name ("Living Room" is no sofa)
         where = Goal(clean(place))
     return Request("search", {found or clean(phrase): where}, explore=True)
