@@ -5,6 +5,7 @@ planner's belief and search under partial observation."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 from robocog.agent.families.reading import Request
@@ -13,13 +14,13 @@ from robocog.agent.policies.belief import Belief, Goal
 from robocog.agent.symbolic.plans import optimal_plan, solved
 from robocog.agent.symbolic.rearrangement import UNSEEN
 from robocog.agent.symbolic.rearrangement import optimal_plan as believed_plan
-from robocog.agent.symbolic.world import SceneNames
+from robocog.agent.symbolic.world import SceneNames, Where
 from robocog.server.world.tasks import evaluate
 from robocog.shared.scene_files import load_scene, scene_path
-from robocog.shared.tasks import AtLocation, Closed, TaskSpec
+from robocog.shared.tasks import AtLocation, Closed, Condition, TaskSpec
 
 KITCHEN = SceneNames(load_scene(scene_path("kitchen_plus")))
-START = {
+START: Where = {
     "cube": ("Front Door", "floor"),
     "box": ("Living Room", "floor"),
     "mug": ("Kitchen Table", "middle"),
@@ -38,7 +39,7 @@ def test_the_scene_s_containers_and_the_positions_inside_them() -> None:
 
 
 def test_putting_into_a_container_opens_it_first_with_the_hand_free_and_closing_costs_one_more() -> None:
-    into = [AtLocation(objects=["mug"], location="Kitchen Cabinet")]
+    into: list[Condition] = [AtLocation(objects=["mug"], location="Kitchen Cabinet")]
     found = optimal_plan(KITCHEN, dict(START), "Kitchen Table", into)
     assert found is not None
     plan, where, robot = found
@@ -56,7 +57,7 @@ def test_putting_into_a_container_opens_it_first_with_the_hand_free_and_closing_
 
 
 def test_taking_out_needs_the_container_open_and_clearing_the_target_comes_first() -> None:
-    out = [AtLocation(objects=["sponge"], location="Kitchen Table")]
+    out: list[Condition] = [AtLocation(objects=["sponge"], location="Kitchen Table")]
     found = optimal_plan(KITCHEN, dict(START), "Front Door", out)
     assert found is not None
     # The table is taken by the mug: the hand is free to open the drawer only once the mug is put away.
@@ -90,10 +91,13 @@ def test_closed_holds_symbolically_as_the_server_judges_the_joints() -> None:
 
 # --- the planner's belief and plans ----------------------------------------------------------------
 
+#: Per location: its neighbours, its positions (-> occupant) and the objects standing loose there.
+Layout = Mapping[str, tuple[list[str], Mapping[str, str | None], list[str]]]
+
 
 def look(
     here: str,
-    locations: dict[str, tuple[list[str], dict[str, str | None], list[str]]],
+    locations: Layout,
     boxes: dict[str, tuple[str, str]],
     *,
     partial: bool,
@@ -117,9 +121,9 @@ def look(
     }
 
 
-HALL = {"Hall": (["Kitchen", "Drawer"], {"floor": None}, [])}
-KITCHEN_SEEN = {"Kitchen": (["Hall"], {"table": "mug"}, [])}
-DRAWER_SHUT = {"Drawer": (["Hall"], {}, [])}
+HALL: Layout = {"Hall": (["Kitchen", "Drawer"], {"floor": None}, [])}
+KITCHEN_SEEN: Layout = {"Kitchen": (["Hall"], {"table": "mug"}, [])}
+DRAWER_SHUT: Layout = {"Drawer": (["Hall"], {}, [])}
 
 
 def test_a_partial_look_adds_to_the_belief_and_what_is_shut_in_stays_believed() -> None:
