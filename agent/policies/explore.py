@@ -11,7 +11,9 @@ Under partial observation the task may name an object the robot has not seen ("F
 it to L"). Then it explores: looks around wherever it has not looked, and drives to the nearest (by
 map hops over the map it knows so far) location it has not seen or closed container it has not
 opened, opening each to look inside, until it has seen every goal object and every goal location;
-then it plans as usual. When nothing is left to search and an object is still missing, it says so.
+then it plans as usual. An object found before its destination has been seen goes along in the hand
+(the destination's name is known from a neighbour's look, or the search goes on). When nothing is
+left to search and an object is still missing, it says so.
 It leaves the containers it opened open: only a task that asks it to close one is helped by closing.
 """
 
@@ -68,13 +70,25 @@ def next_move(request: Request, goals: Mapping[str, Goal], belief: Belief) -> Mo
     free = belief.holding is None
     missing = [o for o in goals if o not in belief.where and o != belief.holding and o not in belief.expected]
     unseen = [g.location for g in goals.values() if g.location not in belief.seen]
-    if missing or unseen:
+    if not missing and unseen:  # everything found, a destination not seen yet
+        return _towards(belief, goals, unseen, free)
+    if missing:
         return _search(belief, missing, unseen, free)
     done = all(satisfied(belief.where.get(o), g) for o, g in goals.items())
     to_close = next((b for b in request.close if b not in belief.closed), None)
     if done and free and to_close is not None:
         return _at(belief, belief.containers.get(to_close, belief.location), Move("close", {"furniture": to_close}))
     return None
+
+
+def _towards(belief: Belief, goals: Mapping[str, Goal], unseen: list[str], free: bool) -> Move:
+    """With every goal object found and a destination not seen: take along a goal object standing
+    here (the hand free), then drive to the destination when the map names it, else search on."""
+    here = [o for o, g in goals.items() if belief.where.get(o, ("", None))[0] == belief.location]
+    if free and here:
+        return Move("grab", {"object": here[0]})
+    known = [loc for loc in unseen if loc in known_names(belief)]
+    return Move("move_to", {"location": known[0]}) if known else _search(belief, [], unseen, free)
 
 
 def _at(belief: Belief, location: str, then: Move) -> Move:
