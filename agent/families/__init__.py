@@ -1,5 +1,5 @@
 """The suite's task families, one module each (`put_away`, `swap`, `bring`, `rearrange`, `infeasible`,
-`referring`, `memory`; their tasks in `assets/families/ID.yaml`): the draws the suite generator uses
+`referring`, `memory`, `containers`, `search`; their tasks in `assets/families/ID.yaml`): the draws the suite generator uses
 and the prompt readers the scripted planner uses, registered where they are defined.
 
 How the registry works, and how to add a family, is in `robocog.agent.families.registry`. Importing
