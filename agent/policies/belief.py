@@ -202,8 +202,8 @@ def current_belief(history: History) -> tuple[Belief | None, Belief | None]:
             if placed is not None:  # a successful place names the object
                 belief.where[placed] = key
             belief.holding = None
-        elif name == "place" and result.get("error") == "position_occupied":
-            key = (result.get("location"), result.get("position"))
+        elif name == "place" and result.get("error") in ("position_occupied", "out_of_reach"):
+            key = (result.get("location"), result.get("position"))  # taken, or beyond the arm: try another
             if belief.occupant.get(key) is None:
                 belief.occupant[key] = "(something)"
         elif name == "place" and result.get("error") == "place_failed":
