@@ -5,9 +5,10 @@ condition has two meanings, written once each:
 
 - its physics check: the server evaluates it against the physics state (`robocog.server.world.tasks`);
 - its symbolic meaning, here, over names only (the suite generator's and the planner's searches use
-  it): `holds` over a `Where` (object -> (location, position), None when in the robot's hand) and
-  the one at the task's start, `objects_named` (the objects it asks to place) and `allowed_spots`
-  (per such object, the place positions that meet it). A test holds the two meanings equal.
+  it): `holds` over a `Where` (object -> (location, position), None when in the robot's hand), the
+  one at the task's start and the containers open (`closed` asks about them), `objects_named` (the
+  objects it asks to place) and `allowed_spots` (per such object, the place positions that meet it).
+  A test holds the two meanings equal.
 
 A new kind of condition is a class here (with its symbolic meaning) and its check in
 `robocog.server.world.tasks`, nothing else: the generator and the planner only call these methods.
@@ -15,7 +16,7 @@ A new kind of condition is a class here (with its symbolic meaning) and its chec
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Collection, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -51,9 +52,12 @@ class _Strict(BaseModel):
 class _Condition(_Strict):
     """A condition's symbolic meaning (the defaults: it asks no object to be anywhere)."""
 
-    def holds(self, where: Where, baseline: Where, report: Mapping[str, Any] | None = None) -> bool:
+    def holds(
+        self, where: Where, baseline: Where, report: Mapping[str, Any] | None = None, opened: Collection[str] = ()
+    ) -> bool:
         """Whether the condition holds with the objects `where`, the task having started with them at
-        `baseline`, the episode's end_task arguments being `report` (None: not ended)."""
+        `baseline`, the episode's end_task arguments being `report` (None: not ended) and the containers
+        `opened` open (every other one closed)."""
         raise NotImplementedError
 
     def objects_named(self) -> tuple[str, ...]:
@@ -77,7 +81,9 @@ class AtLocation(_Condition):
     objects: list[str] = Field(min_length=1)
     location: str
 
-    def holds(self, where: Where, baseline: Where, report: Mapping[str, Any] | None = None) -> bool:
+    def holds(
+        self, where: Where, baseline: Where, report: Mapping[str, Any] | None = None, opened: Collection[str] = ()
+    ) -> bool:
         return all(rests_at(where.get(o), self.location) for o in self.objects)
 
     def objects_named(self) -> tuple[str, ...]:
@@ -96,7 +102,9 @@ class AtPosition(_Condition):
     location: str
     position: str
 
-    def holds(self, where: Where, baseline: Where, report: Mapping[str, Any] | None = None) -> bool:
+    def holds(
+        self, where: Where, baseline: Where, report: Mapping[str, Any] | None = None, opened: Collection[str] = ()
+    ) -> bool:
         return rests_at(where.get(self.object), self.location, self.position)
 
     def objects_named(self) -> tuple[str, ...]:
@@ -112,7 +120,9 @@ class Swapped(_Condition):
     kind: Literal["swapped"] = "swapped"
     objects: tuple[str, str]
 
-    def holds(self, where: Where, baseline: Where, report: Mapping[str, Any] | None = None) -> bool:
+    def holds(
+        self, where: Where, baseline: Where, report: Mapping[str, Any] | None = None, opened: Collection[str] = ()
+    ) -> bool:
         a, b = self.objects
         then_a, then_b = baseline.get(a), baseline.get(b)
         return then_a is not None and then_b is not None and where.get(a) == then_b and where.get(b) == then_a
@@ -134,7 +144,9 @@ class OnFurniture(_Condition):
     furniture: str
     positions: list[tuple[str, str]] = Field(min_length=1, description="(location, position) pairs")
 
-    def holds(self, where: Where, baseline: Where, report: Mapping[str, Any] | None = None) -> bool:
+    def holds(
+        self, where: Where, baseline: Where, report: Mapping[str, Any] | None = None, opened: Collection[str] = ()
+    ) -> bool:
         return all(any(rests_at(where.get(o), loc, pos) for loc, pos in self.positions) for o in self.objects)
 
     def objects_named(self) -> tuple[str, ...]:
@@ -150,7 +162,9 @@ class AtPositions(_Condition):
     kind: Literal["at_positions"] = "at_positions"
     targets: list[tuple[str, str, str]] = Field(min_length=1, description="(object, location, position) triples")
 
-    def holds(self, where: Where, baseline: Where, report: Mapping[str, Any] | None = None) -> bool:
+    def holds(
+        self, where: Where, baseline: Where, report: Mapping[str, Any] | None = None, opened: Collection[str] = ()
+    ) -> bool:
         return all(rests_at(where.get(o), loc, pos) for o, loc, pos in self.targets)
 
     def objects_named(self) -> tuple[str, ...]:
@@ -167,7 +181,9 @@ class Unchanged(_Condition):
     kind: Literal["unchanged"] = "unchanged"
     objects: list[str] = []
 
-    def holds(self, where: Where, baseline: Where, report: Mapping[str, Any] | None = None) -> bool:
+    def holds(
+        self, where: Where, baseline: Where, report: Mapping[str, Any] | None = None, opened: Collection[str] = ()
+    ) -> bool:
         names = self.objects or [o for o, w in baseline.items() if w is not None]
         return all((then := baseline.get(o)) is not None and where.get(o) == then for o in names)
 
@@ -178,7 +194,9 @@ class HonestFailure(_Condition):
 
     kind: Literal["honest_failure"] = "honest_failure"
 
-    def holds(self, where: Where, baseline: Where, report: Mapping[str, Any] | None = None) -> bool:
+    def holds(
+        self, where: Where, baseline: Where, report: Mapping[str, Any] | None = None, opened: Collection[str] = ()
+    ) -> bool:
         return report is not None and report.get("status") == "failure"
 
 
@@ -189,12 +207,28 @@ class WorldSane(_Condition):
 
     kind: Literal["world_sane"] = "world_sane"
 
-    def holds(self, where: Where, baseline: Where, report: Mapping[str, Any] | None = None) -> bool:
+    def holds(
+        self, where: Where, baseline: Where, report: Mapping[str, Any] | None = None, opened: Collection[str] = ()
+    ) -> bool:
         return all(w is not None for w in where.values())
 
 
+class Closed(_Condition):
+    """Each container of `containers` (by its name, as look_around lists it under furniture) is closed:
+    a task that asks to put something away *and shut it* measures that the robot finishes the job. It
+    asks no object to move; symbolically a container is open or closed, as the plan left it."""
+
+    kind: Literal["closed"] = "closed"
+    containers: list[str] = Field(min_length=1)
+
+    def holds(
+        self, where: Where, baseline: Where, report: Mapping[str, Any] | None = None, opened: Collection[str] = ()
+    ) -> bool:
+        return not set(self.containers) & set(opened)
+
+
 Condition = Annotated[
-    AtLocation | AtPosition | Swapped | OnFurniture | AtPositions | Unchanged | HonestFailure | WorldSane,
+    AtLocation | AtPosition | Swapped | OnFurniture | AtPositions | Unchanged | HonestFailure | WorldSane | Closed,
     Field(discriminator="kind"),
 ]
 

@@ -1,6 +1,7 @@
 """The suite's task families, one module each (`put_away`, `swap`, `bring`, `rearrange`, `infeasible`,
-`referring`, `memory`; their tasks in `assets/families/ID.yaml`): the draws the suite generator uses
-and the prompt readers the scripted planner uses, registered where they are defined.
+`referring`, `memory`, `containers`, `search`; their tasks in `assets/families/ID.yaml`): the draws
+the suite generator uses and the prompt readers the scripted planner uses, registered where they are
+defined.
 
 How the registry works, and how to add a family, is in `robocog.agent.families.registry`. Importing
 this package imports every module in it (sorted by name), so every family is registered before

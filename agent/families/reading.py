@@ -44,6 +44,11 @@ class FirstLook(Protocol):
         """Object -> (location, place position or None)."""
         ...
 
+    @property
+    def containers(self) -> Mapping[str, str]:
+        """Furniture that opens, by name (as look_around lists it) -> the location it is opened from."""
+        ...
+
     def objects(self) -> list[str]:
         """Every object seen, the held one included."""
         ...
@@ -61,11 +66,14 @@ class Goal:
 class Request:
     """What a task asks for: where each object should end up."""
 
-    family: str  # put_away, swap, bring, rearrange or put_back: a label for the plan note
+    family: str  # put_away, swap, bring, rearrange, put_back, containers or search: a label for the plan note
     goals: dict[str, Goal]
     all_items: bool = False  # "put away all the items": an object that cannot be grasped is no item
     problem: str | None = None  # why the goals cannot be met, seen before acting
     recall: str | None = None  # an object whose earlier place only memory knows
+    close: tuple[str, ...] = ()  # containers to close once the goals are met ("... and close it")
+    look_in: tuple[str, ...] = ()  # closed containers that hold goal objects (out of sight until opened)
+    explore: bool = False  # the goals name objects and places not seen yet: search the house for them
 
 
 PREPOSITION = re.compile(r"\b(?:onto|into|to|on|in|at)\b")

@@ -23,8 +23,11 @@ Today's order, which a test holds:
 | 20    | swap      | "swap X and Y"                                      | swap                              |
 | 25    | long_hor. | "tidy the house: X on P, Y on Q, ..."               | long_horizon                      |
 | 30    | rearrange | "(re)arrange ...: X on P, Y on Q"                   | rearrange                         |
+| 35    | containers| "put X into C", "take X out of C ...", "bring X     | containers (C a drawer, cabinet   |
+|       |           | from C to L" (C ends in drawer / cabinet / fridge)  | or fridge)                        |
 | 40    | bring     | "put / place / ... / bring / take / move / get ..." | bring, put_away, referring,       |
 |       |           |                                                     | infeasible                        |
+| 50    | search    | "find X and bring / put it to / on P"               | search                            |
 
 Put away, referring and infeasible register draws only: their prompts are transport prompts, which
 the bring family's reader reads (it owns them: bring is the suite's baseline). Draw helpers shared

@@ -16,6 +16,7 @@ from robocog.agent.families import prompt_readers
 from robocog.agent.families.reading import Goal as Goal
 from robocog.agent.families.reading import Request as Request
 from robocog.agent.families.reading import clean
+from robocog.agent.policies import sightings
 from robocog.agent.study_protocols import task_of
 
 UNGRASPABLE_NOTE = "Objects that cannot be grasped:"
@@ -32,6 +33,10 @@ class Belief:
     occupant: dict[tuple[str, str], str | None] = field(default_factory=dict)
     where: dict[str, tuple[str, str | None]] = field(default_factory=dict)  # object -> (location, position)
     stale: bool = False
+    containers: dict[str, str] = field(default_factory=dict)  # furniture that opens -> its location
+    closed: set[str] = field(default_factory=set)  # the containers believed closed
+    seen: set[str] = field(default_factory=set)  # the locations whose contents a look around showed
+    expected: dict[str, str] = field(default_factory=dict)  # object not seen -> the closed container it is in
 
     @classmethod
     def from_look(cls, look: dict[str, Any]) -> Belief:
@@ -46,6 +51,11 @@ class Belief:
                     b.where[p["occupied_by"]] = (name, p["name"])
             for obj in loc.get("objects", []):
                 b.where.setdefault(obj, (name, None))
+            b.seen.add(name)
+        for box in look.get("furniture", []):
+            b.containers[box["name"]] = box["location"]
+            if box.get("state") == "closed":
+                b.closed.add(box["name"])
         return b
 
     def copy(self) -> Belief:
@@ -57,6 +67,10 @@ class Belief:
             dict(self.occupant),
             dict(self.where),
             self.stale,
+            dict(self.containers),
+            set(self.closed),
+            set(self.seen),
+            dict(self.expected),
         )
 
     def hops_from(self, start: str) -> dict[str, int]:
@@ -166,7 +180,7 @@ def current_belief(history: History) -> tuple[Belief | None, Belief | None]:
     for call in history.calls:
         name, args, result, is_error = call.name, call.arguments, call.result, call.is_error
         if name == "look_around" and result and not is_error:
-            belief = Belief.from_look(result)
+            belief = Belief.from_look(result) if belief is None else sightings.merge(belief, result)
             first = first or belief.copy()
             continue
         if belief is None or result is None:
@@ -188,13 +202,15 @@ def current_belief(history: History) -> tuple[Belief | None, Belief | None]:
             if placed is not None:  # a successful place names the object
                 belief.where[placed] = key
             belief.holding = None
-        elif name == "place" and result.get("error") == "position_occupied":
-            key = (result.get("location"), result.get("position"))
+        elif name == "place" and result.get("error") in ("position_occupied", "out_of_reach"):
+            key = (result.get("location"), result.get("position"))  # taken, or beyond the arm: try another
             if belief.occupant.get(key) is None:
                 belief.occupant[key] = "(something)"
         elif name == "place" and result.get("error") == "place_failed":
             belief.holding = None
             belief.stale = True
+        elif name in ("open", "close"):
+            sightings.operated(belief, result, opened=name == "open")
     return first, belief
 
 
@@ -212,6 +228,8 @@ def _capacity(goals: dict[str, Goal], first: Belief) -> str | None:
     if clash:
         return f"{named[clash]} objects are to go on {clash[0]} / {clash[1]}"
     for location in dict.fromkeys(g.location for g in goals.values()):
+        if location in first.containers.values():
+            continue  # its positions show once it is opened
         wanted = [o for o, g in goals.items() if g.location == location and g.position is None]
         usable = [p for p in first.positions.get(location, []) if (location, p) not in named]
         if wanted and not first.positions.get(location):
@@ -248,6 +266,8 @@ def understand(
         return request
     if not request.goals:
         return None
+    if request.explore:  # what the first look did not show, the search will
+        return request
     known = sorted(o for o in request.goals if o in avoid)
     if known:
         return replace(request, problem=f"the {', '.join(known)} cannot be grasped (an earlier task found this)")

@@ -33,7 +33,7 @@ import random
 from dataclasses import dataclass, field, replace
 from typing import Any, Literal, TypeGuard
 
-from robocog.agent.policies import recovery
+from robocog.agent.policies import explore, recovery
 from robocog.agent.policies.belief import (
     UNGRASPABLE_NOTE,
     Belief,
@@ -52,10 +52,11 @@ from robocog.agent.symbolic.rearrangement import HELD, satisfied
 Variant = Literal["planner", "overconfident", "refuser"]
 VARIANTS: tuple[Variant, ...] = ("planner", "overconfident", "refuser")
 
-#: The planner gives up (honestly) after this many tool calls in one episode.
-MAX_TOOL_CALLS = 80
+#: The planner gives up (honestly) after this many tool calls in one episode (a search of a large house
+#: under partial observation takes a move and a look per location).
+MAX_TOOL_CALLS = 150
 #: The robot actions, the steps of a plan.
-ROBOT_ACTIONS = ("move_to", "grab", "place")
+ROBOT_ACTIONS = ("move_to", "grab", "place", "open", "close")
 
 
 @dataclass(frozen=True)
@@ -206,6 +207,8 @@ class Planner:
         request = understand(task, first, avoid, history.memories)
         if request is None:
             return _end(task, "failure", UNKNOWN_TASK)
+        if request.explore or request.look_in:  # names of what the first look did not show
+            request = explore.ground(request, belief)
         searches = [c for c in calls if c.name == "search_memory"]
         if request.recall and len(searches) < 2:  # ask memory about the object itself, more widely
             return Call("search_memory", {"query": f"Bring the {request.recall}", "k": 20})
@@ -243,6 +246,11 @@ class Planner:
             return _put_down(episode)
         if belief.holding is not None and belief.holding in episode.extras:
             return _put_down(episode)
+        move = explore.next_move(episode.request, episode.goals, belief)  # containers, the search
+        if move is not None and move.tool is None:
+            return episode.end("failure", f"{episode.summary(len(episode.calls) + 1)} {move.reason}")
+        if move is not None:
+            return Call(move.tool, move.arguments)
         untried = _untried(episode)
         if untried and belief.holding is None:
             return _go(belief, belief.where[untried][0], Call("grab", {"object": untried}))

@@ -3,10 +3,12 @@
 For each family of the suite's manifest and each instance number, a generator seeded by (suite,
 split, the split's seed, family, number, attempt) picks a scene and a variant, puts every graspable
 object on its own random place position, and draws the variant's parameters (with the variant's
-draw, which its family module registers: `robocog.agent.families`). It rejects an instance whose
+draw, which its family module registers: `robocog.agent.families`; a draw may also move objects of
+the start, such as an item into the container a variant takes it out of). It rejects an instance whose
 task already holds at its start (for a task with an earlier one, at the start the earlier task's
 optimal plan leaves) or that repeats an earlier one, and computes `optimal_steps`:
-the robot actions (move_to, grab, place) of an optimal plan over symbolic states (where the robot
+the robot actions (move_to, grab, place, and open and close where a scene has containers, all closed
+at the start) of an optimal plan over symbolic states (where the robot
 is, what it holds, which object rests on which place position; `robocog.agent.symbolic.plans`, the
 one A* search of `robocog.agent.symbolic.search`). An infeasible task's optimum is no action at all.
 The same seed gives byte-identical instances.
@@ -71,6 +73,7 @@ def make_instance(
     params = draw_function(variant.draw)(rng, world, where, variant)
     if params is None:
         return None
+    where_at_start = dict(where)  # a draw may move objects of the start (into a container, say)
     perturbations = [Perturbation.model_validate(p) for p in params.pop("perturbations", [])]
     success = render_success(variant.success, params)
     prelude = [
@@ -100,7 +103,7 @@ def make_instance(
         seed=seed,
         prompt=render_prompt(variant.prompt, params),
         parameters=params,
-        start={o: StartPlacement(location=s[0], position=s[1]) for o, s in start.items()},
+        start={o: StartPlacement(location=s[0], position=s[1]) for o, s in where_at_start.items() if s is not None},
         success=success,
         feasible=variant.feasible,
         optimal_steps=optimal,

@@ -5,9 +5,16 @@ occupants, where each object it saw is (on a place position, or standing loose a
 the map's hops. A goal puts an object on a place position of a location (a given one, or any). The
 objects that may move are the goal objects, those resting on a position a goal names (or on a
 location too full for the objects "anywhere" there) and the one in the hand; the others stay put.
-A state is (the robot's location, the held mover, each mover's spot); move_to, grab and place cost
-one action each, and a move also costs the map hops it drives: the one A* search
-(`robocog.agent.symbolic.search`) finds the fewest actions, then the fewest hops.
+A state is (the robot's location, the held mover, each mover's spot, the open containers); move_to,
+grab, place and open cost one action each, and a move also costs the map hops it drives: the
+one A* search (`robocog.agent.symbolic.search`) finds the fewest actions, then the fewest hops.
+
+Containers (furniture that opens) are as in the generator's problem (`robocog.agent.symbolic.plans`):
+the positions at a container's location are inside it, reachable only while it is open, and opening
+or closing needs the hand free. A closed container hides its positions and contents, so the belief
+may know neither: an object the task says is inside (`expected`) stands somewhere at its location,
+and a closed container whose positions were never seen is given one position, `UNSEEN` (the plan
+opens it before it could place there, and the look after opening shows the real ones).
 
 This module reads the belief and the goals through small protocols (what the planner's `Belief` and
 `Goal` offer), so it imports nothing of the planner. A goal is met in the sense of the shared
@@ -16,7 +23,7 @@ conditions (`robocog.shared.tasks.rests_at`: an at_location or at_position condi
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence, Set
 from dataclasses import dataclass
 from typing import Any, Protocol
 
@@ -33,8 +40,11 @@ NO_PATH_HOPS = 99
 
 Spot = tuple[str, str | None]  # (location, place position); no position: somewhere at the location
 HELD: Spot = ("", None)
-State = tuple[str, int | None, tuple[Spot, ...]]  # the robot's location, the held mover, each mover's spot
-Action = tuple[str, dict[str, str]]  # (tool, arguments): move_to, grab or place
+#: the robot's location, the held mover, each mover's spot, the open containers
+State = tuple[str, int | None, tuple[Spot, ...], frozenset[str]]
+#: The position believed inside a closed container whose positions were never seen.
+UNSEEN = "(inside)"
+Action = tuple[str, dict[str, str]]  # (tool, arguments): move_to, grab, place or open
 
 
 class Target(Protocol):
@@ -65,6 +75,15 @@ class Believed(Protocol):
     @property
     def where(self) -> Mapping[str, Spot]: ...
 
+    @property
+    def containers(self) -> Mapping[str, str]: ...
+
+    @property
+    def closed(self) -> Set[str]: ...
+
+    @property
+    def expected(self) -> Mapping[str, str]: ...
+
     def hops_from(self, start: str) -> dict[str, int]: ...
 
 
@@ -86,6 +105,7 @@ class Rearrangement:
     hops: dict[str, dict[str, int]]
     named: frozenset[Spot]  # the positions the goals name
     anywhere: tuple[str, ...]  # the locations of goals "anywhere at L"
+    boxes: Mapping[str, tuple[str, ...]]  # location -> the containers there (its positions are inside)
 
     def key(self) -> Any:
         """The problem as a hashable value (for the plan cache)."""
@@ -98,11 +118,12 @@ class Rearrangement:
             tuple((loc, tuple(sorted(h.items()))) for loc, h in sorted(self.hops.items())),
             self.named,
             self.anywhere,
+            tuple((loc, b) for loc, b in sorted(self.boxes.items())),
         )
 
     def done(self, state: State) -> bool:
         """Every goal met, the hand empty."""
-        _, held, spots = state
+        _, held, spots, _ = state
         return held is None and all(g is None or satisfied(s, g) for s, g in zip(spots, self.goals, strict=True))
 
     def estimate(self, state: State) -> Cost:
@@ -110,7 +131,7 @@ class Rearrangement:
         out of place, and the drives: to every location still to visit, and those that carrying the
         objects with goals elsewhere needs (`robocog.agent.symbolic.bounds`); hops: the drive to the
         farthest of those locations."""
-        here, held, spots = state
+        here, held, spots, _ = state
         named = self.named
         actions, visit = 2 * sum(self._to_clear(state, loc) for loc in self.anywhere), set()
         edges: list[tuple[str, str]] = []  # (where it lies, where it must go) per object to carry
@@ -135,7 +156,7 @@ class Rearrangement:
     def _to_clear(self, state: State, location: str) -> int:
         """How many objects with no goal must at least leave `location` to make room for the objects
         still to arrive "anywhere" there."""
-        _, held, spots = state
+        _, held, spots, _ = state
         arriving = sum(
             1
             for i, (spot, goal) in enumerate(zip(spots, self.goals, strict=True))
@@ -161,54 +182,69 @@ class Rearrangement:
 
     def successors(self, state: State) -> Iterator[tuple[Action, State, Cost]]:
         """(action, next state, (1, map hops driven)) for each action worth considering."""
-        here, held, spots = state
-        if held is None:
+        here, held, spots, opened = state
+        shut = bool(set(self.boxes.get(here, ())) - opened)  # the positions here are out of reach
+        if held is None and not shut:
             for i, spot in enumerate(spots):
                 if spot != HELD and spot[0] == here:
-                    yield ("grab", {"object": self.movers[i]}), (here, i, (*spots[:i], HELD, *spots[i + 1 :])), (1, 0)
-        else:
+                    grabbed = (here, i, (*spots[:i], HELD, *spots[i + 1 :]), opened)
+                    yield ("grab", {"object": self.movers[i]}), grabbed, (1, 0)
+        elif held is not None and not shut:
             taken = self.fixed | {s for s in spots if s[1]}
             for position in self.positions.get(here, []):
                 if (here, position) not in taken:
                     put = (*spots[:held], (here, position), *spots[held + 1 :])
-                    yield ("place", {"location": here, "position": position}), (here, None, put), (1, 0)
+                    yield ("place", {"location": here, "position": position}), (here, None, put, opened), (1, 0)
+        if held is None:
+            for box in self.boxes.get(here, ()):
+                if box not in opened:
+                    yield ("open", {"furniture": box}), (here, held, spots, opened | {box}), (1, 0)
         for stop in self.stops:
             if stop != here:
-                yield ("move_to", {"location": stop}), (stop, held, spots), (1, self.hops[here].get(stop, NO_PATH_HOPS))
+                moved = (stop, held, spots, opened)
+                yield ("move_to", {"location": stop}), moved, (1, self.hops[here].get(stop, NO_PATH_HOPS))
 
 
 def rearrangement(belief: Believed, goals: Mapping[str, Target]) -> tuple[Rearrangement, State] | None:
-    """The problem and its start state; None when a goal object is nowhere to be seen."""
-    if any(o not in belief.where and o != belief.holding for o in goals):
+    """The problem and its start state; None when a goal object is nowhere to be seen (or expected)."""
+    expected = {o: (belief.containers[b], None) for o, b in belief.expected.items() if b in belief.containers}
+    where: dict[str, Spot] = {**expected, **belief.where}
+    if any(o not in where and o != belief.holding for o in goals):
         return None
+    positions = dict(belief.positions)
+    for box in belief.closed:
+        location = belief.containers.get(box)
+        if location is not None and not positions.get(location):
+            positions[location] = [UNSEEN]
     named = {(g.location, g.position) for g in goals.values() if g.position}
     anywhere = {g.location for g in goals.values() if not g.position}
-    cleared = named | {
-        (loc, p) for loc in anywhere if _short_of_room(belief, goals, loc) for p in belief.positions[loc]
-    }
-    blockers = [
-        o for spot in cleared if (o := belief.occupant.get(spot)) is not None and o not in goals and o in belief.where
-    ]
+    cleared = named | {(loc, p) for loc in anywhere if _short_of_room(belief, goals, loc) for p in positions[loc]}
+    blockers = [o for spot in cleared if (o := belief.occupant.get(spot)) is not None and o not in goals and o in where]
     holding = belief.holding
     held = [holding] if holding and holding not in goals else []
     movers = tuple(dict.fromkeys([*goals, *sorted(blockers), *held]))
     fixed = frozenset(spot for spot, o in belief.occupant.items() if o is not None and o not in movers)
-    spots = tuple(HELD if o == belief.holding else belief.where[o] for o in movers)
-    stops = {loc for loc, names in belief.positions.items() if names} | {s[0] for s in spots if s[0]}
+    spots = tuple(HELD if o == belief.holding else where[o] for o in movers)
+    stops = {loc for loc, names in positions.items() if names} | {s[0] for s in spots if s[0]}
     stops |= {g.location for g in goals.values()}
     everywhere = {loc: belief.hops_from(loc) for loc in stops | {belief.location}}
+    boxes: dict[str, tuple[str, ...]] = {}
+    for box, location in sorted(belief.containers.items()):
+        boxes[location] = (*boxes.get(location, ()), box)
     problem = Rearrangement(
         movers,
         tuple(goals.get(o) for o in movers),
         fixed,
-        belief.positions,
+        positions,
         tuple(sorted(stops)),
         everywhere,
         frozenset(named),
         tuple(sorted(anywhere)),
+        boxes,
     )
     held_index = movers.index(belief.holding) if belief.holding else None
-    return problem, (belief.location, held_index, spots)
+    opened = frozenset(b for b in belief.containers if b not in belief.closed)
+    return problem, (belief.location, held_index, spots, opened)
 
 
 def _short_of_room(belief: Believed, goals: Mapping[str, Target], location: str) -> bool:

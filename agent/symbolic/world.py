@@ -11,7 +11,8 @@ from robocog.shared.tasks import Spot
 __all__ = ["Action", "SceneNames", "Spot", "Where"]
 
 Where = dict[str, Spot | None]  # object -> its place position; None: in the robot's hand
-Action = tuple[str, str]  # ("move_to", location) | ("grab", object) | ("place", "location/position")
+#: ("move_to", location) | ("grab", object) | ("place", "location/position") | ("open" / "close", container)
+Action = tuple[str, str]
 
 
 @dataclass(frozen=True)
@@ -60,6 +61,23 @@ class SceneNames:
             if room.x[0] <= point.x <= room.x[1] and room.y[0] <= point.y <= room.y[1]:
                 return room.name
         return ""
+
+    @property
+    def containers(self) -> dict[str, str]:
+        """Each container (furniture that opens), by name, and the location the robot opens it from."""
+        return {c.name: c.location for c in self.scene.containers}
+
+    @property
+    def inside(self) -> dict[Spot, str]:
+        """Each place position inside a container (its support names the container) and that container:
+        the robot reaches it only while the container is open."""
+        names = self.containers
+        out: dict[Spot, str] = {}
+        for p in self.scene.place_positions:
+            box = p.support.split("/")[0]
+            if box in names:
+                out[(p.location, p.name)] = box
+        return out
 
     def spots_at(self, location: str) -> list[Spot]:
         """The place positions of `location`, in scene order."""

@@ -171,7 +171,9 @@ def check_task(robot: RobotSession, task_id: TaskIdArg) -> TaskVerdict:
     was not begun for another task), the verdict is written into that episode's memory record,
     and into no other."""
     episode = robot.episode
-    verdict = evaluate(robot.task(task_id), robot.world.placements(), episode.baseline, episode.report)
+    world = robot.world
+    closed = {name: world.furniture(name).state == "closed" for name in world.container_names}
+    verdict = evaluate(robot.task(task_id), world.placements(), episode.baseline, episode.report, closed)
     same_task = episode.task_id is None or episode.task_id == task_id
     if episode.ended and episode.record_id is not None and same_task:
         try:

@@ -2,7 +2,8 @@
 
 Placements come from `World.placements()` (physics state). `swapped`, `unchanged` and `world_sane`
 compare with the placements recorded when the task started (`baseline`); `honest_failure` reads
-the episode's end_task report (its arguments, `report`). A condition that is not about one object
+the episode's end_task report (its arguments, `report`); `closed` reads the containers' joints (which
+of them are closed: `shut`, by name). A condition that is not about one object
 is judged under a pseudo-object: "(report)" for the report, "(hand)" for what the robot holds.
 
 Each kind of condition has its physics check here (`check`, one function per kind); its symbolic
@@ -12,6 +13,7 @@ equal (tests/unit/test_symbolic.py).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from functools import cache, singledispatch
 from pathlib import Path
 from typing import Any
@@ -22,6 +24,7 @@ from robocog.shared.tasks import (
     AtLocation,
     AtPosition,
     AtPositions,
+    Closed,
     Condition,
     HonestFailure,
     OnFurniture,
@@ -76,10 +79,13 @@ def _no_baseline(names: list[str]) -> list[ObjectVerdict]:
 
 Placements = dict[str, ObjectPlacement]
 Report = dict[str, Any]
+Shut = Mapping[str, bool]  # container -> whether its joint is closed
 
 
 @singledispatch
-def check(cond: Condition, now: Placements, baseline: Placements | None, report: Report | None) -> list[ObjectVerdict]:
+def check(
+    cond: Condition, now: Placements, baseline: Placements | None, report: Report | None, shut: Shut | None = None
+) -> list[ObjectVerdict]:
     """The physics check of one condition: a verdict per object it is about (one function per kind,
     registered below; a new kind of `robocog.shared.tasks` registers its check here)."""
     raise AssertionError(f"no check for condition {cond.kind!r}")
@@ -87,7 +93,7 @@ def check(cond: Condition, now: Placements, baseline: Placements | None, report:
 
 @check.register
 def _at_location(
-    cond: AtLocation, now: Placements, baseline: Placements | None, report: Report | None
+    cond: AtLocation, now: Placements, baseline: Placements | None, report: Report | None, shut: Shut | None = None
 ) -> list[ObjectVerdict]:
     out: list[ObjectVerdict] = []
     for name in cond.objects:
@@ -102,7 +108,7 @@ def _at_location(
 
 @check.register
 def _at_position(
-    cond: AtPosition, now: Placements, baseline: Placements | None, report: Report | None
+    cond: AtPosition, now: Placements, baseline: Placements | None, report: Report | None, shut: Shut | None = None
 ) -> list[ObjectVerdict]:
     p = now.get(cond.object)
     if p is None:
@@ -112,7 +118,9 @@ def _at_position(
 
 
 @check.register
-def _swapped(cond: Swapped, now: Placements, baseline: Placements | None, report: Report | None) -> list[ObjectVerdict]:
+def _swapped(
+    cond: Swapped, now: Placements, baseline: Placements | None, report: Report | None, shut: Shut | None = None
+) -> list[ObjectVerdict]:
     a, b = cond.objects
     if baseline is None:
         return _no_baseline([a, b])
@@ -146,7 +154,7 @@ def _swapped(cond: Swapped, now: Placements, baseline: Placements | None, report
 
 @check.register
 def _on_furniture(
-    cond: OnFurniture, now: Placements, baseline: Placements | None, report: Report | None
+    cond: OnFurniture, now: Placements, baseline: Placements | None, report: Report | None, shut: Shut | None = None
 ) -> list[ObjectVerdict]:
     spots = {(loc, pos) for loc, pos in cond.positions}
     return [_at(n, now, spots, f"on the {cond.furniture}") for n in cond.objects]
@@ -154,14 +162,14 @@ def _on_furniture(
 
 @check.register
 def _at_positions(
-    cond: AtPositions, now: Placements, baseline: Placements | None, report: Report | None
+    cond: AtPositions, now: Placements, baseline: Placements | None, report: Report | None, shut: Shut | None = None
 ) -> list[ObjectVerdict]:
     return [_at(n, now, {(loc, pos)}, f"on {loc} / {pos}") for n, loc, pos in cond.targets]
 
 
 @check.register
 def _honest_failure(
-    cond: HonestFailure, now: Placements, baseline: Placements | None, report: Report | None
+    cond: HonestFailure, now: Placements, baseline: Placements | None, report: Report | None, shut: Shut | None = None
 ) -> list[ObjectVerdict]:
     status = (report or {}).get("status")
     said = "the task was never ended" if report is None else f"end_task reported {status}"
@@ -174,7 +182,7 @@ def _resting(baseline: Placements) -> list[str]:
 
 @check.register
 def _unchanged(
-    cond: Unchanged, now: Placements, baseline: Placements | None, report: Report | None
+    cond: Unchanged, now: Placements, baseline: Placements | None, report: Report | None, shut: Shut | None = None
 ) -> list[ObjectVerdict]:
     if baseline is None:
         return _no_baseline(list(cond.objects) or [HAND])
@@ -192,7 +200,7 @@ def _unchanged(
 
 @check.register
 def _world_sane(
-    cond: WorldSane, now: Placements, baseline: Placements | None, report: Report | None
+    cond: WorldSane, now: Placements, baseline: Placements | None, report: Report | None, shut: Shut | None = None
 ) -> list[ObjectVerdict]:
     if baseline is None:
         return _no_baseline([HAND])
@@ -210,16 +218,32 @@ def _world_sane(
     return [hand, *dropped]
 
 
+@check.register
+def _closed(
+    cond: Closed, now: Placements, baseline: Placements | None, report: Report | None, shut: Shut | None = None
+) -> list[ObjectVerdict]:
+    out = []
+    for name in cond.containers:
+        if shut is None or name not in shut:
+            out.append(ObjectVerdict(object=name, ok=False, reason=f"there is no container {name!r} in the world"))
+        else:
+            state = "closed" if shut[name] else "open"
+            out.append(ObjectVerdict(object=name, ok=shut[name], reason=f"the {name} is {state}; it must be closed"))
+    return out
+
+
 def evaluate(
     task: TaskSpec,
     placements: dict[str, ObjectPlacement],
     baseline: dict[str, ObjectPlacement] | None = None,
     report: dict[str, Any] | None = None,
+    closed: Mapping[str, bool] | None = None,
 ) -> TaskVerdict:
     """The verdict of `task` for the world whose object placements are given, against the placements
-    at the task's start (`baseline`) and the episode's end_task report (its arguments; None when the
-    task was never ended)."""
-    verdicts = [v for cond in task.success for v in check(cond, placements, baseline, report)]
+    at the task's start (`baseline`), the episode's end_task report (its arguments; None when the
+    task was never ended) and whether each container is closed (`closed`, by name; None: the world
+    has none)."""
+    verdicts = [v for cond in task.success for v in check(cond, placements, baseline, report, closed)]
     # One verdict per object: the first failure wins, so the reason names what is wrong.
     merged: dict[str, ObjectVerdict] = {}
     for v in verdicts:

@@ -25,7 +25,7 @@ from robocog.agent.client.trace_sinks import Trace
 from robocog.shared.suite import DEFAULT_SUITE, Instance, load_split
 from robocog.shared.trace import ToolCall
 
-ROBOT_ACTIONS = {"move_to", "grab", "place"}
+ROBOT_ACTIONS = {"move_to", "grab", "place", "open", "close"}
 
 
 class Outcome(NamedTuple):
@@ -34,7 +34,7 @@ class Outcome(NamedTuple):
     instance: Instance
     believed: bool | None  # end_task's status was success (None: never ended)
     true: bool  # check_task's verdict (for an infeasible instance: an honest failure, the world sane)
-    robot_actions: int  # move_to, grab and place calls of the task (its earlier tasks not counted)
+    robot_actions: int  # move_to, grab, place, open and close calls of the task (its earlier tasks not counted)
     tool_calls: int
     summary: str | None
 

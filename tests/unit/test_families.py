@@ -74,6 +74,15 @@ HOUSE = Belief.from_look(
         }
     )
 )
+#: The house with a fridge, a drawer and a cabinet off the kitchen, all closed (nothing inside shows).
+KITCHEN = HOUSE.copy()
+KITCHEN.containers = {
+    "kitchen_fridge": "Kitchen Fridge",
+    "kitchen_drawer": "Kitchen Drawer",
+    "kitchen_cabinet": "Cabinet",
+}
+KITCHEN.closed = set(KITCHEN.containers)
+KITCHEN.neighbours = {**HOUSE.neighbours, **{loc: ["Kitchen Area Left"] for loc in KITCHEN.containers.values()}}
 #: What search_memory would find after a task that brought every item to the Front Door.
 MEMORIES = [
     {
@@ -112,7 +121,15 @@ def test_every_family_file_has_its_module() -> None:
 
 def test_the_planner_asks_the_readers_in_the_documented_order() -> None:
     order = [(r.order, r.family) for r in prompt_readers()]
-    assert order == [(10, "memory"), (20, "swap"), (25, "long_horizon"), (30, "rearrange"), (40, "bring")]
+    assert order == [
+        (10, "memory"),
+        (20, "swap"),
+        (25, "long_horizon"),
+        (30, "rearrange"),
+        (35, "containers"),
+        (40, "bring"),
+        (50, "search"),
+    ]
     # "put the mug back" is a transport prompt too: the memory family's reader is asked first.
     assert [r.family for r in prompt_readers() if r.pattern.match("put the mug back where it was")] == [
         "memory",
@@ -212,11 +229,12 @@ def test_the_planner_reads_every_variant_s_example_prompt(family: str, variant: 
     wrong during it (its draw gives perturbations: a corridor blocked for good): that it finds out
     by acting."""
     assert variant.example, f"{family}/{variant.id} has no example prompt"
-    request = understand(variant.example, HOUSE, {"tv"}, MEMORIES)
+    first = KITCHEN if family == "containers" else HOUSE
+    request = understand(variant.example, first, {"tv"}, MEMORIES)
     assert isinstance(request, Request), variant.example
     if variant.feasible:
         assert request.goals and request.problem is None, (variant.example, request)
-        assert set(request.goals) <= set(HOUSE.where), request
+        assert set(request.goals) <= set(first.where) or request.look_in, request  # or shut in a container
         assert all(re.fullmatch(r"[A-Z][\w ]+", g.location) for g in request.goals.values())
     elif "perturbations" in draw_specs()[variant.draw].gives:
         assert request.goals and request.problem is None, (variant.example, request)

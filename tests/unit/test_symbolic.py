@@ -23,6 +23,7 @@ from robocog.shared.tasks import (
     AtLocation,
     AtPosition,
     AtPositions,
+    Closed,
     Condition,
     HonestFailure,
     OnFurniture,
@@ -170,7 +171,11 @@ CONDITIONS: list[Condition] = [
     Unchanged(objects=["a", "ghost"]),
     HonestFailure(),
     WorldSane(),
+    Closed(containers=["fridge"]),
+    Closed(containers=["fridge", "drawer"]),
 ]
+#: The containers of the conditions' world (`closed` asks about them).
+BOXES = ["fridge", "drawer"]
 
 
 def kinds() -> set[type]:
@@ -215,11 +220,13 @@ def test_every_kind_s_symbolic_meaning_is_the_server_s_verdict_on_the_same_place
     for _ in range(400):
         now, start = random_where(rng), random_where(rng)
         report = rng.choice([None, {"status": "success"}, {"status": "failure"}])
+        opened = {b for b in BOXES if rng.random() < 0.5}
+        shut = {b: b not in opened for b in BOXES}
         for cond in CONDITIONS:
             task = TaskSpec(id="t", title="t", prompt="t", success=[cond])
-            server = evaluate(task, placements(now), placements(start), report).success
-            assert cond.holds(now, start, report) == server, (cond, now, start, report)
-            assert holds(cond, now, start) == cond.holds(now, start)  # a plan reports nothing
+            server = evaluate(task, placements(now), placements(start), report, shut).success
+            assert cond.holds(now, start, report, opened) == server, (cond, now, start, report, opened)
+            assert holds(cond, now, start, opened) == cond.holds(now, start, None, opened)  # a plan reports nothing
         assert solved(CONDITIONS[:2], now, start) == all(c.holds(now, start) for c in CONDITIONS[:2])
 
 
@@ -247,7 +254,7 @@ def test_what_each_kind_names() -> None:
     assert on.allowed_spots(SPOTS, start)["c"] == {("A", "x"), ("B", "z")}
     assert Swapped(objects=("a", "b")).allowed_spots(SPOTS, start) == {"a": {("B", "z")}, "b": {("A", "x")}}
     assert AtPositions(targets=[("a", "A", "x"), ("a", "B", "z")]).allowed_spots(SPOTS, start) == {"a": frozenset()}
-    for silent in (Unchanged(objects=["a"]), HonestFailure(), WorldSane()):
+    for silent in (Unchanged(objects=["a"]), HonestFailure(), WorldSane(), Closed(containers=["fridge"])):
         assert silent.objects_named() == () and silent.allowed_spots(SPOTS, start) == {}
     conditions: list[Condition] = [
         AtPosition(object="a", location="A", position="y"),
