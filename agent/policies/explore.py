@@ -81,6 +81,14 @@ def next_move(request: Request, goals: Mapping[str, Goal], belief: Belief) -> Mo
     return None
 
 
+def room_to_work(belief: Belief) -> Move | None:
+    """When no plan fits the part of the house seen so far (no free position to park an object that
+    must make room): the nearest location not seen yet, which may have one; None when all is seen."""
+    hops = _hops(belief)
+    places = sorted((loc for loc in hops if loc not in belief.seen), key=lambda n: (hops[n], n))
+    return Move("move_to", {"location": places[0]}) if places else None
+
+
 def _towards(belief: Belief, goals: Mapping[str, Goal], unseen: list[str], free: bool) -> Move:
     """With every goal object found and a destination not seen: take along a goal object standing
     here (the hand free), then drive to the destination when the map names it, else search on."""

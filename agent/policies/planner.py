@@ -255,8 +255,9 @@ class Planner:
         if untried and belief.holding is None:
             return _go(belief, belief.where[untried][0], Call("grab", {"object": untried}))
         plan = optimal_plan(belief, episode.goals)
-        if plan is None:
-            return _put_down(episode)
+        if plan is None:  # under partial observation, another location may have room to work
+            more = explore.room_to_work(belief)
+            return _put_down(episode) if more is None else Call(more.tool, more.arguments)
         if plan:
             return plan[0]
         if episode.extras:

@@ -152,8 +152,8 @@ def lost(goals: Mapping[str, Goal], belief: Belief, setbacks: Setbacks) -> dict[
         elif setbacks.misses.get(obj, 0) >= MAX_GRAB_MISSES:
             out[obj] = "it lies out of the arm's reach"
             continue
-        else:
-            places = [belief.where[obj][0], goal.location]
+        else:  # where it lies, if it has been seen (a search has not found it yet)
+            places = [belief.where[obj][0], goal.location] if obj in belief.where else [goal.location]
         if setbacks.blocked_drives < MAX_BLOCKED:
             continue
         stuck = [p for p in places if _route(belief, belief.location, p, setbacks.blocked) is None]
