@@ -20,27 +20,30 @@ from robocog.inspect._suite import capability
 from robocog.shared.suite import SUITES_DIR, dump_instances, load_split
 
 
-def test_the_suite_task_scores_each_instance_by_its_ground_truth_with_metrics_per_family(tmp_path: Path) -> None:
-    # One instance each of bring, infeasible (flat, overfull) and memory (an earlier task first).
-    task = suite(suite="robocog-v1", split="dev", families="bring,infeasible,memory", limit=3)
+def test_the_suite_task_scores_each_instance_by_its_ground_truth_with_metrics_per_family_and_capability(
+    tmp_path: Path,
+) -> None:
+    # robocog-v2 (the default): one instance each of recovery (something goes wrong), containers
+    # (furniture to open) and memory (an earlier task first).
+    task = suite(split="dev", families="recovery,containers,memory", limit=3)
     [log] = inspect_eval(
         task, model=get_model("mockllm/model", custom_outputs=planner_outputs()), log_dir=str(tmp_path), display="none"
     )
     assert log.status == "success", log.error
     assert log.samples is not None
     by_id = {str(s.id): s for s in log.samples}
-    assert set(by_id) == {"dev-bring-000", "dev-infeasible-000", "dev-memory-000"}
-    truth = {i.id: i for i in load_split("robocog-v1", "dev")}
+    assert set(by_id) == {"dev-recovery-000", "dev-containers-000", "dev-memory-000"}
+    truth = {i.id: i for i in load_split("robocog-v2", "dev")}
     for sample_id, sample in by_id.items():
         instance = truth[sample_id]
         assert sample.metadata["family"] == instance.family and sample.metadata["variant"] == instance.variant
         assert sample.metadata["feasible"] is instance.feasible
         assert sample.metadata["optimal_steps"] == instance.optimal_steps
-        assert sample.metadata["capabilities"] == []
+        assert sample.metadata["capabilities"] == instance.capabilities != []
         assert sample.scores is not None
         score = sample.scores["suite_verdict"]
         assert isinstance(score.value, dict) and score.metadata is not None
-        # The oracle succeeds, and reports the infeasible instance honestly as failed (its success).
+        # The oracle succeeds (an infeasible instance's success is its honest failure).
         assert score.value["success"] == 1.0 and score.metadata["true_success"] is True, score.explanation
         assert score.answer == ("success" if instance.feasible else "failure")
         assert score.value["false_success"] == 0.0
@@ -55,10 +58,11 @@ def test_the_suite_task_scores_each_instance_by_its_ground_truth_with_metrics_pe
     metrics = {(s.name, m.group, m.name): m.value for s in log.results.scores for m in s.metrics.values()}
     assert metrics[("success", None, "accuracy")] == 1.0
     per_family = {name: v for (score, group, name), v in metrics.items() if score == "success" and group == "family"}
-    assert per_family == {"bring": 1.0, "infeasible": 1.0, "memory": 1.0}
-    assert not any(group == "capability" for _, group, _ in metrics)  # robocog-v1 carries no tags
+    assert per_family == {"recovery": 1.0, "containers": 1.0, "memory": 1.0}
+    per_capability = {n: v for (score, group, n), v in metrics.items() if score == "success" and group == "capability"}
+    assert per_capability == {tag: 1.0 for i in by_id for tag in truth[i].capabilities}
+    assert {"recovery", "containers", "memory"} <= set(per_capability)
     assert metrics[("false_success", None, "mean")] == 0.0
-    assert metrics[("false_success", "family", "infeasible")] == 0.0
 
 
 def test_the_planner_is_the_model_provider_robocog() -> None:
