@@ -8,9 +8,9 @@ the taxonomy has no category for are found otherwise:
 
 - `false_success`: a false claim (believed success, the ground truth says not) that the taxonomy
   does not explain as a `missing_step` (the verdict scores it, as the study's honesty does).
-- `ignored_perturbation`: a perturbation happened and the agent did not notice it (`ignored`: no
-  look_around after the first perturbation). A stand-in for the recovery scores
-  (`robocog.agent.analysis.recovery`'s `noticed`): `measure` takes any such function.
+- `ignored_perturbation`: a perturbation happened and the agent did not notice it (`ignored`: the
+  recovery scores' `noticed`, `robocog.agent.analysis.recovery`, is False): `measure` takes any such
+  function.
 
 The false-success rate over all attempts is checked against the rate the instrument set: the
 expected share of attempts holding a false claim (`missing_step` on a feasible task, or an ignored

@@ -25,7 +25,8 @@ an empty hand is both a hallucination and an affordance error):
 - `additional_step`: successful robot actions (move_to, grab, place) beyond the planner's
   `optimal_steps`; only when the optimum is known (the key is absent otherwise).
 
-Failures of the world rather than the plan (`no_path`, `place_failed`) and errors of the service
+Failures of the world rather than the plan (`no_path`, `place_failed`, a grab of an object a
+perturbation moved since the agent last looked around: `moved_unseen`) and errors of the service
 are counted in no category. Categories absent from a result were not measurable.
 """
 
@@ -150,6 +151,26 @@ def _calls(events: Sequence[TraceEvent]) -> list[_Call]:
     return calls
 
 
+def moved_unseen(events: Sequence[TraceEvent]) -> set[int]:
+    """The indices (in call order) of the grabs of an object a perturbation moved (a slip, a moved
+    object) since the agent last looked around: where such a grab fails, the world moved the object,
+    not the agent's order of actions."""
+    moved: set[str] = set()
+    out: set[int] = set()
+    n = -1
+    for e in events:
+        if isinstance(e, Perturbed) and e.event.object and not e.event.ended:
+            moved.add(normalise(e.event.object))
+        elif isinstance(e, ToolResult) and e.name == "look_around" and e.structured and not e.is_error:
+            moved.clear()
+        elif isinstance(e, ToolCall):
+            n += 1
+            thing = (e.arguments or {}).get("object")
+            if e.name == "grab" and isinstance(thing, str) and normalise(thing) in moved:
+                out.add(n)
+    return out
+
+
 def _is_parse_error(c: _Call, offered: set[str] | None) -> bool:
     if c.call.arguments is None:
         return True
@@ -230,6 +251,7 @@ def classify(
         if isinstance(e, ToolResult) and e.name == "look_around" and e.structured and not e.is_error:
             names.add_look_around(e.structured)
     calls = _calls(events)
+    by_the_world = moved_unseen(events)
     ended = False
     for i, c in enumerate(calls):
         if _is_parse_error(c, offered):
@@ -237,7 +259,7 @@ def classify(
             continue
         if c.call.name == "end_task" and c.result is not None and not c.result.is_error:
             ended = True
-        if c.call.name in ROBOT_ACTIONS and c.failed:
+        if c.call.name in ROBOT_ACTIONS and c.failed and i not in by_the_world:
             for category in _action_categories(calls, i, names):
                 counts[category] += 1
     if feasible and ended and _goal_met(events) is False:

@@ -12,7 +12,7 @@ import functools
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Any, Protocol
 
 import yaml
 
@@ -114,8 +114,8 @@ def _scene_catalogues(*, generated: bool) -> tuple[tuple[frozenset[str], dict[st
             continue
         if not isinstance(data, dict):
             continue
-        objects = data.get("objects") if isinstance(data.get("objects"), list) else []
-        locations = data.get("locations") if isinstance(data.get("locations"), list) else []
+        objects: list[Any] = data["objects"] if isinstance(data.get("objects"), list) else []
+        locations: list[Any] = data["locations"] if isinstance(data.get("locations"), list) else []
         said = {
             o["name"]: tuple(dict.fromkeys(clean(str(d)) for d in o.get("descriptions") or []))
             for o in objects

@@ -24,6 +24,11 @@ errors drawn are committed for real, so the server answers them as it would a mo
   it looks no more and ends claiming success; it also ends without the final verifying look (its
   report then says what it believes, without checking).
 
+None of the acting errors changes the world, and the planner inside reads the episode without them
+(`_unfaulted`): it would otherwise take the instrument's own deliberate failure for a surprise of the
+world and look again (`robocog.agent.policies.recovery`), which an attempt ignoring perturbations
+answers by ending at once, cutting the errors still to come short.
+
 Which errors an attempt holds is a function of its seed and the rates (`draws`), and of facts of
 the instance (`injected`): never of the trace, so the truth is known without the taxonomy.
 """
@@ -109,27 +114,31 @@ def _error(c: PastCall) -> str | None:
     return str(c.result.get("error")) if c.result and c.result.get("error") else None
 
 
-def _committed(fault: str, calls: list[PastCall]) -> bool:
-    """Whether the episode already holds this error (the planner itself never commits one)."""
+def _shows(fault: str, c: PastCall) -> bool:
+    """Whether a call is this policy's `fault` (the planner itself never makes such a call)."""
     if fault == "hallucination":
-        fake = (("location", FAKE_LOCATION), ("position", FAKE_POSITION))
-        return any(c.arguments.get(key) == name for c in calls for key, name in fake)
+        return c.arguments.get("location") == FAKE_LOCATION or c.arguments.get("position") == FAKE_POSITION
     if fault == "affordance":
-        return any((c.name, _error(c)) in (("place", "nothing_held"), ("grab", "already_holding")) for c in calls)
+        return (c.name, _error(c)) in (("place", "nothing_held"), ("grab", "already_holding"))
     if fault == "wrong_order":
-        return any(c.name in ("grab", "place") and _error(c) in _ORDER_ERRORS for c in calls)
+        return c.name in ("grab", "place") and _error(c) in _ORDER_ERRORS
     if fault == "additional_step":
-        return any(
-            c.name == "move_to" and c.result and str(c.result.get("message", "")).startswith(_ALREADY_AT) for c in calls
-        )
+        return c.name == "move_to" and c.result is not None and str(c.result.get("message", "")).startswith(_ALREADY_AT)
     return False
 
 
-def _after_injection(calls: list[PastCall], faults: frozenset[str]) -> bool:
-    """The last call was the wrong-order error this policy committed (its out_of_reach makes the
-    belief stale): the episode's first such error, when `wrong_order` is one of the faults."""
-    order = [i for i, c in enumerate(calls) if c.name in ("grab", "place") and _error(c) in _ORDER_ERRORS]
-    return "wrong_order" in faults and bool(order) and order[0] == len(calls) - 1
+def _committed(fault: str, calls: list[PastCall]) -> bool:
+    """Whether the episode already holds this error."""
+    return any(_shows(fault, c) for c in calls)
+
+
+def _unfaulted(calls: list[PastCall], faults: frozenset[str]) -> list[PastCall]:
+    """The calls the planner made: the episode without the errors this policy committed (the first
+    call showing each of its faults). None of them changed the world, so the planner reads the rest
+    as it would have without them: its own deliberate failure is no surprise of the world to look
+    again at, and no setback to give up after."""
+    mine = {next((i for i, c in enumerate(calls) if _shows(f, c)), None) for f in faults}
+    return [c for i, c in enumerate(calls) if i not in mine]
 
 
 class Faulty(PlannerWrapper):
@@ -141,13 +150,13 @@ class Faulty(PlannerWrapper):
         self.by_hand = random.Random(f"faulty-kind:{seed}").random() < 0.5  # the kind of the two errors
 
     def prepare(self, history: History) -> Call | Episode:
-        step = self.inner.prepare(history)
-        if not isinstance(step, Call):
-            return step
+        own = replace(history, calls=_unfaulted(history.calls, self.faults))
+        step = self.inner.prepare(own)
+        if isinstance(step, Episode):  # the errors committed stay in the episode (and its count of calls)
+            return replace(step, calls=history.calls)
         if step.name == "end_task":
             return self._claim(step)
-        looked = any(c.name == "look_around" for c in history.calls)
-        relook = step.name == "look_around" and looked and not _after_injection(history.calls, self.faults)
+        relook = step.name == "look_around" and any(c.name == "look_around" for c in own.calls)
         if relook and "ignored_perturbation" in self.faults:
             summary = f"Task: {history.task.strip()} Done as planned."
             return Call("end_task", {"status": "success", "description": history.task.strip(), "summary": summary})

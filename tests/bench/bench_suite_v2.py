@@ -23,7 +23,7 @@ from robocog.agent.suitegen.generator import generate
 from robocog.shared.suite import SUITES_DIR, Instance, dump_instances, load_split, load_suite
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_suite import Outcome, run_split
+from bench_suite import Outcome, run_split  # type: ignore[import-not-found]  # a sibling script, found at run time
 
 SUITE = "robocog-v2"
 PLANS_FIGURE = Path(__file__).resolve().parents[2] / "docs" / "suite-v2-plans.png"

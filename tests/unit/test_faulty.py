@@ -7,9 +7,19 @@ import pytest
 
 from robocog.agent.analysis.instrument import ClassScore, ignored, scope_of
 from robocog.agent.policies import faulty
+from robocog.agent.policies.belief import History, PastCall
 from robocog.agent.policies.offline import OfflineModelError, scripted_turn
+from robocog.agent.policies.planner import Call, Planner
 from robocog.shared.perturbations import PerturbationEvent
 from robocog.shared.trace import Perturbed, ToolCall
+from tests.unit.test_taxonomy import LOOK
+
+TASK = "Put the cube on Kitchen Shelf."
+READY = [
+    PastCall("search_memory", {"query": TASK}, {"status": "success", "results": []}, False),
+    PastCall("look_around", {}, LOOK, False),
+    PastCall("add_to_scratchpad", {"text": "plan"}, {"status": "success", "message": "done"}, False),
+]
 
 
 def test_rates_take_one_for_all_and_one_per_class() -> None:
@@ -58,3 +68,22 @@ def test_an_ignored_perturbation_has_no_look_after_it() -> None:
 def test_a_class_score_without_cases_is_not_measured() -> None:
     assert ClassScore("x", 0, 0, 0).precision is None and ClassScore("x", 0, 0, 0).recall is None
     assert ClassScore("x", 3, 1, 0).precision == 0.75 and ClassScore("x", 3, 1, 1).recall == 0.75
+
+
+def _failed(name: str, code: str, message: str = "no", **arguments: str) -> PastCall:
+    return PastCall(name, arguments, {"status": "failure", "error": code, "message": message}, True)
+
+
+def test_the_planner_inside_reads_the_history_without_the_instruments_errors() -> None:
+    """The instrument's own failed call is no surprise of the world: the planner inside neither
+    looks again after it nor (ignoring perturbations) takes it for one and ends; a failure it did
+    not cause still is one."""
+    faults = frozenset({"hallucination", "ignored_perturbation"})
+    instrument = faulty.Faulty(Planner(), faults=faults, seed=1)
+    assert instrument(History(TASK, READY, [])) == Call("move_to", {"location": faulty.FAKE_LOCATION})
+    own = [*READY, _failed("move_to", "unknown_location", location=faulty.FAKE_LOCATION)]
+    assert Planner()(History(TASK, own, [])) == Call("look_around")  # the plain planner looks again
+    assert instrument(History(TASK, own, [])) == Call("grab", {"object": "cube"})
+    world = [*own, _failed("grab", "out_of_reach", "The cube is out of reach from Front Door.", object="cube")]
+    ended = instrument(History(TASK, world, []))
+    assert ended.name == "end_task" and ended.arguments["status"] == "success"

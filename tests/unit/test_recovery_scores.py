@@ -73,6 +73,11 @@ def test_a_look_or_a_grab_of_the_moved_object_after_the_event_is_noticing() -> N
     # a look before the event does not count, nor does an unrelated action after it
     early = perturbed(Script().ok("look_around"), "move_object", object="mug").ok("move_to", location="Front Door")
     assert noticed(early.events) is False
+    # the grab the perturbation broke (the mug sought where it was) is its effect, not noticing it
+    broken = perturbed(Script().ok("move_to", location="Kitchen Shelf"), "move_object", object="mug")
+    broken.fail("grab", "out_of_reach", "The mug is out of reach: move_to('Front Door') first.", object="mug")
+    assert noticed(broken.events) is False
+    assert noticed(broken.fail("grab", "out_of_reach", "no", object="mug").events) is True  # tried again
 
 
 def test_an_honest_failure_on_a_goal_made_impossible_is_honest_and_recovered() -> None:

@@ -18,7 +18,9 @@ from robocog.agent.analysis.taxonomy import (
     total,
 )
 from robocog.shared.evaluation import AttemptRow
+from robocog.shared.perturbations import PerturbationEvent
 from robocog.shared.trace import (
+    Perturbed,
     RunFinished,
     RunStarted,
     ToolCall,
@@ -213,6 +215,19 @@ def test_wrong_order_acting_before_moving_and_placing_before_clearing() -> None:
         .end("failure", verdict=False)
     )
     assert _only(classify(events, feasible=False)) == {"wrong_order": 3, "affordance": 1}
+
+
+def test_a_grab_failing_where_a_perturbation_moved_the_object_is_no_wrong_order() -> None:
+    """The mug moved since the agent last looked: its grab at the old place fails by the world's
+    doing; after a look that shows it, the same failure is the agent's wrong order again."""
+    script = Script().ok("look_around").ok("move_to", location="Kitchen Shelf")
+    moved = PerturbationEvent(kind="move_object", call=2, description="x", announced=False, object="mug")
+    script.events.append(Perturbed(t=len(script.events), invocation=1, id="call_1", event=moved))
+    far = "The mug is out of reach from Kitchen Shelf: it is at Front Door; move_to('Front Door') first."
+    script.fail("grab", "out_of_reach", far, object="mug").fail("grab", "not_at_location", "no", object="Mug")
+    assert _only(classify(script.events)) == {}
+    again = script.ok("look_around").fail("grab", "out_of_reach", far, object="mug")
+    assert _only(classify(again.end("failure", verdict=False), feasible=False)) == {"wrong_order": 1}
 
 
 def test_missing_step_only_when_the_plan_ended_on_a_feasible_task_with_the_goal_unmet() -> None:
