@@ -4,8 +4,9 @@
 and the false-success rate's 95% interval against the rate the instrument set.
 
 `SUITE` and `SPLIT` (environment variables `ROBOCOG_INSTRUMENT_SUITE`, `ROBOCOG_INSTRUMENT_SPLIT`)
-pick the instances; a class the split cannot hold (no perturbation in robocog-v1) records null, so
-a second, perturbed study (T1, the mug moved away mid-task) measures the ignored perturbation.
+pick the instances (robocog-v2's dev split, one trial, by default); a class the split cannot hold (no
+perturbation in robocog-v1) records null, and a second, perturbed study (T1, the mug moved away
+mid-task) measures the ignored perturbation on its own as well.
 """
 
 from __future__ import annotations
@@ -24,10 +25,10 @@ from robocog.agent.harness.study import run_eval
 from robocog.agent.policies import faulty
 from robocog.shared.evaluation import EvalConfig
 
-SUITE = os.environ.get("ROBOCOG_INSTRUMENT_SUITE", "robocog-v1")
+SUITE = os.environ.get("ROBOCOG_INSTRUMENT_SUITE", "robocog-v2")
 SPLIT = os.environ.get("ROBOCOG_INSTRUMENT_SPLIT", "dev")
 RATE = 0.3
-TRIALS = 2
+TRIALS = 1
 
 
 def _round(x: float | None) -> float | None:
