@@ -206,7 +206,8 @@ class Rearrangement:
 
 
 def rearrangement(belief: Believed, goals: Mapping[str, Target]) -> tuple[Rearrangement, State] | None:
-    """The problem and its start state; None when a goal object is nowhere to be seen (or expected)."""
+    """The problem and its start state; None when a goal object is nowhere to be seen (or expected),
+    or a goal's location has no place position known (not seen yet, under partial observation)."""
     expected = {o: (belief.containers[b], None) for o, b in belief.expected.items() if b in belief.containers}
     where: dict[str, Spot] = {**expected, **belief.where}
     if any(o not in where and o != belief.holding for o in goals):
@@ -216,6 +217,8 @@ def rearrangement(belief: Believed, goals: Mapping[str, Target]) -> tuple[Rearra
         location = belief.containers.get(box)
         if location is not None and not positions.get(location):
             positions[location] = [UNSEEN]
+    if any(not positions.get(g.location) for g in goals.values()):
+        return None
     named = {(g.location, g.position) for g in goals.values() if g.position}
     anywhere = {g.location for g in goals.values() if not g.position}
     cleared = named | {(loc, p) for loc in anywhere if _short_of_room(belief, goals, loc) for p in positions[loc]}

@@ -94,7 +94,11 @@ async def run_split(instances: list[Instance], workers: int = 2, *, suite: str =
     async def worker(data: Path) -> None:
         async with connect(ServerSpec(extra_args=["--profile", "eval", "--data-dir", str(data)])) as robot:
             while not queue.empty():
-                outcomes.append(await run_instance(robot, queue.get_nowait(), suite=suite))
+                instance = queue.get_nowait()
+                try:
+                    outcomes.append(await run_instance(robot, instance, suite=suite))
+                except Exception as exc:  # a policy's bug: the instance fails, the run goes on, and says so
+                    outcomes.append(Outcome(instance, None, False, 0, 0, f"error: {type(exc).__name__}: {exc}"))
 
     with tempfile.TemporaryDirectory() as tmp:
         async with asyncio.TaskGroup() as tg:
