@@ -21,7 +21,7 @@ import itertools
 import re
 from collections import deque
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from robocog.agent.families.reading import Goal
@@ -56,6 +56,8 @@ class Setbacks:
     misses: Mapping[str, int]  # object -> grabs that failed where the planner believed it lay
     unseen: frozenset[str]  # objects a grab said are near no location
     grabbed: frozenset[str]  # objects the hand held at some point of the episode
+    out_of_reach: Mapping[tuple[str, str, str], int] = field(default_factory=dict)  # (object, location,
+    # position) -> places that failed there because the arm could not reach, standing at the location
 
 
 def _message(call: PastCall) -> str:
@@ -69,6 +71,7 @@ def read_setbacks(calls: list[PastCall]) -> Setbacks:
     misses: dict[str, int] = {}
     unseen: set[str] = set()
     grabbed: set[str] = set()
+    missed_places: dict[tuple[str, str, str], int] = {}
     for call in calls:
         text, result = _message(call), call.result or {}
         for a, b in _BLOCK_NEWS.findall(text):
@@ -89,10 +92,17 @@ def read_setbacks(calls: list[PastCall]) -> Setbacks:
                 unseen.add(obj)
             elif "move_to(" not in text:
                 misses[obj] = misses.get(obj, 0) + 1
+        if call.name == "place" and result.get("error") == "out_of_reach" and "move_to(" not in text:
+            key = (
+                str(result.get("object", "")),
+                str(call.arguments.get("location")),
+                str(call.arguments.get("position")),
+            )
+            missed_places[key] = missed_places.get(key, 0) + 1
         if call.name == "grab" and result.get("status") == "success":
             misses.pop(str(call.arguments.get("object", "")), None)
             grabbed.add(str(call.arguments.get("object", "")))
-    return Setbacks(frozenset(blocked), drives, misses, frozenset(unseen), frozenset(grabbed))
+    return Setbacks(frozenset(blocked), drives, misses, frozenset(unseen), frozenset(grabbed), missed_places)
 
 
 def look_again(calls: list[PastCall]) -> bool:
@@ -140,7 +150,8 @@ def detour(call: Call, belief: Belief, setbacks: Setbacks) -> Call:
 
 def lost(goals: Mapping[str, Goal], belief: Belief, setbacks: Setbacks) -> dict[str, str]:
     """The goal objects the planner gives up on, and why: out of sight (a grab said so, or it left the
-    hand and no look has seen it since), out of the arm's reach where they lie, or (after
+    hand and no look has seen it since), out of the arm's reach where they lie or where they must go
+    (places there failed so, twice), or (after
     `MAX_BLOCKED` blocked drives) beyond a corridor that stays blocked."""
     out: dict[str, str] = {}
     for obj, goal in goals.items():
@@ -151,6 +162,9 @@ def lost(goals: Mapping[str, Goal], belief: Belief, setbacks: Setbacks) -> dict[
             continue
         elif setbacks.misses.get(obj, 0) >= MAX_GRAB_MISSES:
             out[obj] = "it lies out of the arm's reach"
+            continue
+        if goal.position and setbacks.out_of_reach.get((obj, goal.location, goal.position), 0) >= MAX_GRAB_MISSES:
+            out[obj] = f"the arm cannot reach {goal.location} / {goal.position} with it"
             continue
         else:  # where it lies, if it has been seen (a search has not found it yet)
             places = [belief.where[obj][0], goal.location] if obj in belief.where else [goal.location]

@@ -3,8 +3,11 @@ robot's actions. No physics: the server's world is never imported here."""
 
 from __future__ import annotations
 
+import functools
+import json
 from dataclasses import dataclass
 
+from robocog.assets import ASSETS_DIR
 from robocog.shared.scene import Scene
 from robocog.shared.tasks import Spot
 
@@ -13,6 +16,18 @@ __all__ = ["Action", "SceneNames", "Spot", "Where"]
 Where = dict[str, Spot | None]  # object -> its place position; None: in the robot's hand
 #: ("move_to", location) | ("grab", object) | ("place", "location/position") | ("open" / "close", container)
 Action = tuple[str, str]
+
+
+#: The physics survey of the shipped scenes (`python -m robocog.server.world.reach`).
+REACH_FILE = ASSETS_DIR / "scenes" / "reach.json"
+
+
+@functools.cache
+def unreachable(scene: str) -> frozenset[Spot]:
+    """The place positions of the shipped scene `scene` the arm misses with some object (none for a
+    scene the survey does not know)."""
+    survey = json.loads(REACH_FILE.read_text(encoding="utf-8")) if REACH_FILE.exists() else {}
+    return frozenset((loc, pos) for loc, pos in survey.get(scene, []))
 
 
 @dataclass(frozen=True)
@@ -28,8 +43,11 @@ class SceneNames:
 
     @property
     def spots(self) -> list[Spot]:
-        """Every place position, in scene order."""
-        return [(p.location, p.name) for p in self.scene.place_positions]
+        """Every place position the arm reaches with every object of the scene, in scene order: a
+        position the physics survey found out of reach for some object (`unreachable`) is never a
+        start, a target nor a parking place of a generated task."""
+        out_of_reach = unreachable(self.scene.name)
+        return [(p.location, p.name) for p in self.scene.place_positions if (p.location, p.name) not in out_of_reach]
 
     @property
     def inside_spots(self) -> list[Spot]:
