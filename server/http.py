@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING, Any
 
 from robocog.server.config import DEFAULT_MAX_SESSIONS, DEFAULT_SESSION_IDLE_S
 from robocog.shared.errors import ConfigError
-from robocog.shared.web import LOOPBACK_NAMES
+from robocog.shared.web import LOOPBACK_NAMES, SERVER_KEEP_ALIVE_S
 
 # The MCP SDK is imported where it is used: the command line checks its options with this module
 # before it pays for the SDK's import (a bad option fails in a fraction of a second).
@@ -362,5 +362,6 @@ def serve(mcp: MCPServer[Any], options: HttpOptions, *, log_level: str = "warnin
         port=options.port,
         log_level=log_level.lower(),
         lifespan="on",
+        timeout_keep_alive=SERVER_KEEP_ALIVE_S,  # one connection for a whole attempt, think time included
     )
     anyio.run(uvicorn.Server(config).serve)

@@ -34,6 +34,7 @@ from typing import TYPE_CHECKING, Any
 
 from robocog.server.config import DEFAULT_SESSION_IDLE_S
 from robocog.server.router_wire import driver_name, error_response, is_stopped, parse_message, say
+from robocog.shared.web import CLIENT_KEEP_ALIVE_S
 
 if TYPE_CHECKING:
     import httpx2
@@ -287,7 +288,9 @@ class Router:
         if self._client is None:
             # No read timeout (a GET stream is quiet for minutes); the time to an answer is bounded below.
             timeout = httpx2.Timeout(None, connect=10.0)
-            self._client = httpx2.AsyncClient(timeout=timeout, limits=httpx2.Limits(max_connections=None))
+            # Idle connections to the processes kept as long as a client's to the router (see shared.web).
+            limits = httpx2.Limits(max_connections=None, keepalive_expiry=CLIENT_KEEP_ALIVE_S)
+            self._client = httpx2.AsyncClient(timeout=timeout, limits=limits)
         headers = [(k, v) for k, v in request.headers.raw if k.decode("latin-1").lower() != "content-length"]
         outgoing = self._client.build_request(
             request.method, upstream.url, params=request.url.query, headers=headers, content=body

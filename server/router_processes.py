@@ -17,6 +17,7 @@ from robocog.server.config import DRIVER_SECRET_ENV
 from robocog.server.router import Router, Upstream
 from robocog.shared.errors import ConfigError
 from robocog.shared.process import PARENT_ENV, die_with_parent, free_port, wait_listening
+from robocog.shared.web import SERVER_KEEP_ALIVE_S
 
 #: Flags of the public server that its fleet processes get in another form (or not at all), and
 #: whether each takes a value.
@@ -191,5 +192,12 @@ def serve(router: Router, host: str, port: int, log_level: str) -> None:
     import uvicorn
 
     signal.signal(signal.SIGTERM, exit_on_sigterm)
-    config = uvicorn.Config(router.app(), host=host.strip("[]"), port=port, log_level=log_level.lower(), lifespan="on")
+    config = uvicorn.Config(
+        router.app(),
+        host=host.strip("[]"),
+        port=port,
+        log_level=log_level.lower(),
+        lifespan="on",
+        timeout_keep_alive=SERVER_KEEP_ALIVE_S,
+    )
     anyio.run(uvicorn.Server(config).serve)

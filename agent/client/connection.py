@@ -24,6 +24,7 @@ from mcp_types import Tool
 from robocog.shared import __version__
 from robocog.shared.errors import ServerConnectionError
 from robocog.shared.protocol import CONTRACT_VERSION_PATTERN, FLEET_FULL
+from robocog.shared.web import CLIENT_KEEP_ALIVE_S
 
 
 def default_server_command() -> list[str]:
@@ -175,6 +176,8 @@ async def _http_transport(url: str, token: str | None) -> AsyncIterator[Any]:
     import httpx2  # the MCP SDK's HTTP client
     from mcp.client.streamable_http import streamable_http_client
 
+    from robocog.agent.client.keepalive import KeepAliveTransport
+
     headers = {"Authorization": f"Bearer {token}"} if token else {}
 
     async def refused(response: httpx2.Response) -> None:
@@ -187,8 +190,14 @@ async def _http_transport(url: str, token: str | None) -> AsyncIterator[Any]:
 
     # The SDK's own timeouts: a response stream may stay open for minutes.
     timeout = httpx2.Timeout(30.0, read=300.0)
+    # One client and one pooled connection for the whole attempt: each answer read to its end (see
+    # keepalive), kept through the model's turns (httpx's 5 s default dropped it between most calls),
+    # and dropped before the server would close it.
+    limits = httpx2.Limits(keepalive_expiry=CLIENT_KEEP_ALIVE_S)
+    transport = KeepAliveTransport(httpx2.AsyncHTTPTransport(limits=limits))
+    hooks = {"response": [refused]}
     async with (
-        httpx2.AsyncClient(headers=headers, timeout=timeout, event_hooks={"response": [refused]}) as client,
+        httpx2.AsyncClient(headers=headers, timeout=timeout, transport=transport, event_hooks=hooks) as client,
         streamable_http_client(url, http_client=client) as streams,
     ):
         yield streams

@@ -8,7 +8,10 @@ left, right or behind, or turns toward a named location or object. The vertical 
 `FOV_DEG` (about 75 degrees across at 4:3).
 
 Rendering uses PyBullet's TinyRenderer (software, no display, no GPU) without shadows, and reads
-the simulation only: nothing is stepped or moved. Like every reading of a world, call it from the
+the simulation only: nothing is stepped or moved. Its cost is its pixel fill and the triangles of
+every mesh, so a frame is drawn at `raster.RENDER_SCALE` of each side and scaled up (bilinear for the
+colours, nearest for the body ids and depth; at 320x240 that is 240x180), without the robot's arm
+when the arm is out of the frame (see `raster`). Like every reading of a world, call it from the
 one thread that drives the world (the server's lock).
 
     view = capture(world, "ahead")        # pixels, segmentation, depth and the camera's pose
@@ -28,7 +31,7 @@ import numpy as np
 import numpy.typing as npt
 import pybullet
 
-from robocog.server.world import truth
+from robocog.server.world import raster, truth
 from robocog.server.world.navigation import closest, resolve, strip_articles
 from robocog.server.world.world import World
 from robocog.shared.results import Caption, SeenObject
@@ -135,8 +138,11 @@ def aim(world: World, direction: str = "ahead") -> Aim:
 BACKGROUND = (206, 214, 224)
 
 
-def capture(world: World, direction: str = "ahead", *, width: int = WIDTH, height: int = HEIGHT) -> CameraView:
-    """Render the camera's view for `direction` (see `aim`) at `width` x `height` pixels."""
+def capture(
+    world: World, direction: str = "ahead", *, width: int = WIDTH, height: int = HEIGHT, scale: float | None = None
+) -> CameraView:
+    """Render the camera's view for `direction` (see `aim`) at `width` x `height` pixels, drawn at
+    `scale` of each side (default `raster.RENDER_SCALE`; 1 draws every pixel) and scaled up."""
     if not (16 <= width <= MAX_SIDE and 16 <= height <= MAX_SIDE):
         raise ValueError(f"the image must be 16 to {MAX_SIDE} pixels on each side, not {width}x{height}")
     pointing = aim(world, direction)
@@ -146,15 +152,20 @@ def capture(world: World, direction: str = "ahead", *, width: int = WIDTH, heigh
     forward = (math.cos(tilt) * math.cos(yaw), math.cos(tilt) * math.sin(yaw), math.sin(tilt))
     view = client.computeViewMatrix(eye, [e + f for e, f in zip(eye, forward, strict=True)], [0, 0, 1])
     projection = client.computeProjectionMatrixFOV(FOV_DEG, width / height, NEAR_M, FAR_M)
-    # shadow=0 every time: TinyRenderer keeps the last call's shadow setting, and shadows triple the time.
-    _, _, rgba, depth, seg = client.getCameraImage(
-        width, height, view, projection, renderer=pybullet.ER_TINY_RENDERER, shadow=0
-    )
-    rgb = np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3].copy()
-    segmentation = np.asarray(seg, dtype=np.int32).reshape(height, width)
-    rgb[segmentation < 0] = BACKGROUND  # nothing there (above the walls): a ceiling, not blank paper
-    _legible(rgb, segmentation)
-    buffer = np.asarray(depth, dtype=np.float32).reshape(height, width)
+    w, h = raster.render_size(width, scale), raster.render_size(height, scale)
+    with raster.arm_hidden_unless_seen(client, robot.arm, view, projection):
+        # shadow=0 every time: TinyRenderer keeps the last call's shadow setting; shadows triple the time.
+        _, _, rgba, depth, seg = client.getCameraImage(
+            w, h, view, projection, renderer=pybullet.ER_TINY_RENDERER, shadow=0
+        )
+    small = np.asarray(rgba, dtype=np.uint8).reshape(h, w, 4)[:, :, :3].copy()
+    small_segmentation = np.asarray(seg, dtype=np.int32).reshape(h, w)
+    small[small_segmentation < 0] = BACKGROUND  # nothing there (above the walls): a ceiling, not blank paper
+    rgb = raster.bilinear(small, height, width)
+    rows, cols = raster.nearest(h, height), raster.nearest(w, width)
+    segmentation = np.ascontiguousarray(small_segmentation[rows][:, cols])
+    _legible(rgb, segmentation)  # at the output's size: outlines one pixel wide, not smeared by scaling
+    buffer = np.asarray(depth, dtype=np.float32).reshape(h, w)[rows][:, cols]
     metres = (FAR_M * NEAR_M / (FAR_M - (FAR_M - NEAR_M) * buffer)).astype(np.float32)
     return CameraView(
         aim=pointing,

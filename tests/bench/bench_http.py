@@ -3,11 +3,18 @@
 A real `robocog-server --transport http` process on a free loopback port:
 - a read-only call (look_around) over one session, p50/p99, without and with a bearer token;
 - sessions: RSS of the server before, with the cap (64) open, after 2,000 refused opens past the cap,
-  and after every session was closed (DELETE), i.e. whether the memory comes back.
+  and after every session was closed (DELETE), i.e. whether the memory comes back;
+- connection reuse: the same calls through the SDK's client as it comes (a plain httpx2 client: the
+  previous release) and through robocog's (`agent.client.connection`: answers read to their end, idle
+  connections kept through a model's turn), alternating in rounds on one server: the TCP connections
+  each opened (httpcore's own debug log, on for both), the client's and the server's CPU per call, the
+  wall time, and the connections opened by calls after a pause longer than httpx's and uvicorn's 5 s.
 """
 
 from __future__ import annotations
 
+import json
+import logging
 import os
 import statistics
 import subprocess
@@ -26,6 +33,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository, 
 from tests.helpers import free_port, server_command
 
 CALLS = 300
+REUSE_CALLS, REUSE_ROUNDS = 400, 8
+#: Calls after an idle pause (a model's turn), and the pause.
+IDLE_CALLS, IDLE_S = 3, 6.0
 MAX_SESSIONS = 64
 REFUSED = 2000
 TOKEN = "bench-token-0123456789abcdef"
@@ -80,6 +90,83 @@ async def _round_trips(url: str, token: str | None) -> list[float]:
     return times
 
 
+class _Connects(logging.Handler):
+    """Counts the TCP connections httpcore opens (its debug log says `connect_tcp.started`)."""
+
+    def __init__(self) -> None:
+        super().__init__(logging.DEBUG)
+        self.count = 0
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.count += record.getMessage().startswith("connect_tcp.started")
+
+
+def _cpu_s(pid: int) -> float:
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")  # utime + stime
+
+
+async def _reuse(url: str, pid: int) -> dict[str, object]:
+    """The connections, CPU and time of REUSE_CALLS calls each way, in alternating rounds."""
+    from robocog.agent.client.connection import _http_transport
+
+    connects = _Connects()
+    log = logging.getLogger("httpcore2")
+    log.addHandler(connects)
+    level = log.level
+    log.setLevel(logging.DEBUG)
+    totals = {way: {"connections": 0, "client_cpu": 0.0, "server_cpu": 0.0, "wall": 0.0} for way in ("sdk", "robocog")}
+    try:
+        async with (
+            # The SDK's client as it comes, with robocog's timeouts (httpx's 5 s would end its GET stream).
+            httpx2.AsyncClient(timeout=httpx2.Timeout(30.0, read=300.0)) as http,
+            Client(streamable_http_client(url, http_client=http), mode="legacy") as sdk,
+            Client(_http_transport(url, None), mode="legacy") as ours,
+        ):
+            await sdk.call_tool("look_around", {})
+            await ours.call_tool("look_around", {})
+            for _ in range(REUSE_ROUNDS):
+                for way, client in (("sdk", sdk), ("robocog", ours)):
+                    n, c0, s0, t0 = connects.count, time.process_time(), _cpu_s(pid), time.perf_counter()
+                    for _ in range(REUSE_CALLS // REUSE_ROUNDS):
+                        await client.call_tool("look_around", {})
+                    total = totals[way]
+                    total["wall"] += time.perf_counter() - t0
+                    total["server_cpu"] += _cpu_s(pid) - s0
+                    total["client_cpu"] += time.process_time() - c0
+                    total["connections"] += connects.count - n
+            idle = {"sdk": 0, "robocog": 0}
+            for _ in range(IDLE_CALLS):  # a model's turn between two calls: longer than httpx's and uvicorn's 5 s
+                await anyio.sleep(IDLE_S)
+                for way, client in (("sdk", sdk), ("robocog", ours)):
+                    n = connects.count
+                    await client.call_tool("look_around", {})
+                    idle[way] += connects.count - n
+    finally:
+        log.removeHandler(connects)
+        log.setLevel(level)
+    figures: dict[str, object] = {}
+    for way, total in totals.items():
+        key = f"http.reuse.{way}"
+        figures[f"{key}.connections_per_100_calls"] = round(total["connections"] / REUSE_CALLS * 100, 1)
+        figures[f"{key}.client_cpu_ms_per_call"] = round(total["client_cpu"] / REUSE_CALLS * 1000, 2)
+        figures[f"{key}.server_cpu_ms_per_call"] = round(total["server_cpu"] / REUSE_CALLS * 1000, 2)
+        figures[f"{key}.wall_ms_per_call"] = round(total["wall"] / REUSE_CALLS * 1000, 2)
+        figures[f"{key}.connections_per_call_after_idle"] = round(idle[way] / IDLE_CALLS, 2)
+    figures["http.reuse.calls"] = REUSE_CALLS
+    figures["http.reuse.idle_s"] = IDLE_S
+    return figures
+
+
+def _reuse_in_child(url: str, pid: int) -> dict[str, object]:
+    """`_reuse` in a process of its own: `make bench` runs every bench in one process, and the threads
+    an earlier bench left behind (an in-process server's) would count in this client's CPU and time."""
+    command = [sys.executable, __file__, "--reuse", url, str(pid)]
+    done = subprocess.run(command, capture_output=True, text=True, check=True, timeout=600)
+    figures: dict[str, object] = json.loads(done.stdout)
+    return figures
+
+
 def _pct(values: list[float], q: float) -> float:
     return round(statistics.quantiles(values, n=100)[int(q) - 1], 2)
 
@@ -120,7 +207,9 @@ def run() -> dict[str, object]:
                 times = anyio.run(_round_trips, url, token)
                 figures[f"http.look_around_{label}.p50_ms"] = round(statistics.median(times), 2)
                 figures[f"http.look_around_{label}.p99_ms"] = _pct(times, 99)
-                if token is not None:
+                if token is None:
+                    figures.update(_reuse_in_child(url, proc.pid))
+                else:
                     figures.update(_sessions(url, proc.pid))
             finally:
                 proc.terminate()
@@ -129,6 +218,7 @@ def run() -> dict[str, object]:
 
 
 if __name__ == "__main__":
-    import json
-
-    print(json.dumps(run(), indent=2))
+    if sys.argv[1:2] == ["--reuse"]:
+        print(json.dumps(anyio.run(_reuse, sys.argv[2], int(sys.argv[3]))))
+    else:
+        print(json.dumps(run(), indent=2))
