@@ -46,10 +46,18 @@ def derived_seed(*parts: object) -> int:
     return int.from_bytes(digest[:4], "big") >> 1
 
 
-def random_start(rng: random.Random, world: SceneNames) -> dict[str, Spot]:
+def random_start(rng: random.Random, world: SceneNames) -> dict[str, Spot] | None:
     """Every graspable object on its own place position in the open (not inside a container: only a
-    family about containers puts things there), drawn at random (scene order)."""
-    spots = rng.sample(world.open_spots, len(world.graspable))
+    family about containers puts things there, or a house with too few open positions for all its
+    objects), drawn at random (scene order); None when the scene cannot hold them all."""
+    n, open_spots = len(world.graspable), world.open_spots
+    if len(open_spots) >= n:
+        spots = rng.sample(open_spots, n)
+    elif len(open_spots) + len(world.inside_spots) >= n:  # too full a house: some start put away inside
+        spots = open_spots + rng.sample(world.inside_spots, n - len(open_spots))
+        rng.shuffle(spots)
+    else:
+        return None
     return dict(zip(world.graspable, spots, strict=True))
 
 
@@ -69,6 +77,8 @@ def make_instance(
     its variant's and those it earns by what it is (`derived_capabilities`)."""
     variant = rng.choice(family.variants)
     start = random_start(rng, world)
+    if start is None:
+        return None
     where: Where = dict(start)
     params = draw_function(variant.draw)(rng, world, where, variant)
     if params is None:

@@ -21,6 +21,10 @@ from robocog.shared.tasks import Allowed, Closed, Condition
 
 #: The longest plan the generator looks for (no suite task needs as many actions).
 PLAN_LIMIT = 40
+#: The most states the generator expands looking for one plan: beyond it the draw is given up (and
+#: drawn again) rather than searched through every plan of up to `PLAN_LIMIT` actions, which a task
+#: with no plan at all (a target the arm cannot reach) would take hours to prove.
+EXPANSION_LIMIT = 300_000
 
 #: the robot's location, what it holds, each mover's spot, the open containers
 State = tuple[str, str | None, tuple[Spot | None, ...], frozenset[str]]
@@ -136,7 +140,12 @@ def optimal_plan(
         return state[1] is None and solved(success, full(state), baseline, state[3])
 
     start: State = (robot, None, tuple(where[o] for o in movable), frozenset())
-    found = astar(Problem(start, successors, is_goal, estimate), action_limit=limit, deeper_first=True)
+    found = astar(
+        Problem(start, successors, is_goal, estimate),
+        action_limit=limit,
+        expansion_limit=EXPANSION_LIMIT,
+        deeper_first=True,
+    )
     if found is None:
         return None
     return found.actions, full(found.state), found.state[0]

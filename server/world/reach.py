@@ -21,6 +21,7 @@ surveys a sample of scenes again and compares.
 from __future__ import annotations
 
 import json
+import math
 import sys
 
 from robocog.server.world import actions
@@ -30,6 +31,8 @@ from robocog.shared.scene_files import generated_scene_names, scene_names, scene
 
 #: The survey's margin under the grasp threshold, metres.
 MARGIN_M = 0.04
+#: A grip is trusted when the object's origin is this close to the hand (else the pick knocked it about).
+HELD_WITHIN_M = 0.3
 
 
 def unreachable_positions(world: World) -> list[tuple[str, str]]:
@@ -45,6 +48,8 @@ def unreachable_positions(world: World) -> list[tuple[str, str]]:
                 continue
             hx, hy, hz = robot.end_effector()
             (ox, oy, oz), _ = c.getBasePositionAndOrientation(obj.body)
+            if math.dist((hx, hy, hz), (ox, oy, oz)) > HELD_WITHIN_M:  # a grip that knocked it about
+                continue
             for (location, name), pos in sim.positions.items():
                 if pos.container is not None or (location, name) in missed:
                     continue
