@@ -130,12 +130,16 @@ def _scene_catalogues(*, generated: bool) -> tuple[tuple[frozenset[str], dict[st
 
 def descriptions_in(first: FirstLook) -> dict[str, tuple[str, ...]]:
     """The descriptions of the house the first look shows: a generated house's own (its colours are
-    its own: "the red thing" is another object in another house), found by its location names; the
-    hand-made scenes' otherwise."""
-    seen = set(first.neighbours)
-    houses = [said for names, said in _scene_catalogues(generated=True) if seen and seen <= names]
+    its own: "the red thing" is another object in another house), found by its location and object
+    names; the hand-made scenes' otherwise."""
+    seen, things = set(first.neighbours), set(first.objects())
+    houses = [
+        said for names, said in _scene_catalogues(generated=True) if seen and seen <= names and things <= set(said)
+    ]
     if len(houses) == 1:
         return houses[0]
+    if houses:  # houses alike in every name seen: what all of them call each object
+        return {o: tuple(d for d in houses[0][o] if all(d in h.get(o, ()) for h in houses)) for o in houses[0]}
     return scene_descriptions()
 
 
