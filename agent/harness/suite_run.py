@@ -10,6 +10,7 @@ from typing import Any
 
 from robocog.shared.controls import EvalControls
 from robocog.shared.evaluation import AttemptRow, EvalConfig
+from robocog.shared.provenance import sha256_of
 from robocog.shared.suite import Instance, load_split
 
 
@@ -84,8 +85,17 @@ class SuiteRun:
             await begin(pre.id)
             row = await attempt(pre.id)
             if row.outcome == "error":
-                return row.model_copy(update={"task": task_id, **self.row_fields(task_id)})
+                return self._as_instance_row(row, task_id)
             if not row.true_success:  # the follow-up would start where it should end: it cannot be measured
                 why = f"its earlier task {pre.id} failed, so it was not run ({row.reason})"
-                return row.model_copy(update={"task": task_id, **self.row_fields(task_id), "reason": why})
+                return self._as_instance_row(row, task_id, reason=why)
         return None
+
+    def _as_instance_row(self, row: AttemptRow, task_id: str, **update: Any) -> AttemptRow:
+        """An earlier task's row as the instance's: its task, fields and provenance (the instance's
+        digest, as the instance's own attempt would carry)."""
+        provenance = row.provenance
+        if provenance is not None:
+            digest = sha256_of(self.spec(task_id))
+            provenance = provenance.model_copy(update={"task_sha256": digest, "suite": self.suite})
+        return row.model_copy(update={"task": task_id, **self.row_fields(task_id), "provenance": provenance, **update})

@@ -14,6 +14,7 @@ from robocog.agent.cli import main as cli
 from robocog.agent.harness.study import run_eval
 from robocog.agent.harness.suite_run import SuiteRun
 from robocog.shared.evaluation import EvalConfig, ModelSpec
+from robocog.shared.provenance import sha256_of
 from robocog.shared.suite import find_instance, load_split, load_suite, parse_instances, select
 
 SUITE = load_suite()
@@ -107,5 +108,8 @@ async def test_an_instance_whose_earlier_task_failed_is_a_failure_not_run(tmp_pa
     inst = find_instance(SUITE.name, config.tasks[0])
     assert [(r.task, r.family, r.true_success) for r in rows] == [(inst.id, "memory", False)]
     assert rows[0].reason.startswith(f"its earlier task {inst.id}-pre1 failed, so it was not run")
+    # Its provenance names the instance (as a row of the instance run would), not the earlier task.
+    assert rows[0].provenance is not None and rows[0].provenance.suite == SUITE.name
+    assert rows[0].provenance.task_sha256 == sha256_of(inst.model_dump(mode="json"))
     traces = sorted(p.name for p in (tmp_path / "r.traces").rglob("*.jsonl"))
     assert traces == [f"iter-0-{inst.id}-pre1.jsonl"], "the instance itself never ran"
