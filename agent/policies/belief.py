@@ -177,7 +177,8 @@ def current_belief(history: History) -> tuple[Belief | None, Belief | None]:
     """(belief at the first look around, belief now) — None before any look around."""
     first: Belief | None = None
     belief: Belief | None = None
-    for call in history.calls:
+    beyond_reach: set[tuple[Any, Any]] = set()  # positions a place could not reach: a later look shows
+    for call in history.calls:  # them free, but they stay beyond the arm for the rest of the episode
         name, args, result, is_error = call.name, call.arguments, call.result, call.is_error
         if name == "look_around" and result and not is_error:
             belief = Belief.from_look(result) if belief is None else sightings.merge(belief, result)
@@ -206,11 +207,16 @@ def current_belief(history: History) -> tuple[Belief | None, Belief | None]:
             key = (result.get("location"), result.get("position"))  # taken, or beyond the arm: try another
             if belief.occupant.get(key) is None:
                 belief.occupant[key] = "(something)"
+            if result.get("error") == "out_of_reach" and "move_to(" not in str(result.get("message", "")):
+                beyond_reach.add(key)
         elif name == "place" and result.get("error") == "place_failed":
             belief.holding = None
             belief.stale = True
         elif name in ("open", "close"):
             sightings.operated(belief, result, opened=name == "open")
+    for key in beyond_reach if belief is not None else ():
+        if belief.occupant.get(key) is None:
+            belief.occupant[key] = "(beyond the arm)"
     return first, belief
 
 
