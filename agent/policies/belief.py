@@ -214,9 +214,10 @@ def current_belief(history: History) -> tuple[Belief | None, Belief | None]:
             belief.stale = True
         elif name in ("open", "close"):
             sightings.operated(belief, result, opened=name == "open")
-    for key in beyond_reach if belief is not None else ():
-        if belief.occupant.get(key) is None:
-            belief.occupant[key] = "(beyond the arm)"
+    if belief is not None:
+        for key in beyond_reach:
+            if belief.occupant.get(key) is None:
+                belief.occupant[key] = "(beyond the arm)"
     return first, belief
 
 
