@@ -29,6 +29,8 @@ from robocog.shared.paper import T1_SEQUENCE, T2_SEQUENCE, Action, action_args
 if TYPE_CHECKING:
     from mcp import Client
 
+    from robocog.agent.client.connection import Robot
+
 __all__ = ["T1_SEQUENCE", "T2_SEQUENCE", "Action", "action_args"]
 
 SNAPSHOTS = Path(__file__).parent / "snapshots"
@@ -226,6 +228,23 @@ async def http_session(url: str) -> AsyncIterator[Client]:
 
     async with Client(streamable_http_client(url), mode="legacy") as client:
         yield client
+
+
+@asynccontextmanager
+async def in_process_robot(data_dir: Path) -> AsyncIterator[Robot]:
+    """The robot of an in-process eval-profile server (memory under `data_dir`), as the agent loop
+    sees it: its client, tools and system prompt."""
+    from mcp import Client
+
+    from robocog.agent.client.connection import Robot
+    from robocog.server.app import build_server
+    from robocog.server.config import SessionConfig
+
+    server = build_server(SessionConfig(data_dir=data_dir), profile="eval")
+    async with Client(server) as client:
+        tools = (await client.list_tools()).tools
+        prompt = await client.get_prompt("robot_system")
+        yield Robot(client, tools, prompt.messages[0].content.text, {}, "in-memory")  # type: ignore[union-attr]
 
 
 async def call_ok(client: Client, tool: str, **arguments: Any) -> dict[str, Any]:

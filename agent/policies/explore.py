@@ -84,9 +84,8 @@ def next_move(request: Request, goals: Mapping[str, Goal], belief: Belief) -> Mo
 def room_to_work(belief: Belief) -> Move | None:
     """When no plan fits the part of the house seen so far (no free position to park an object that
     must make room): the nearest location not seen yet, which may have one; None when all is seen."""
-    hops = _hops(belief)
-    places = sorted((loc for loc in hops if loc not in belief.seen), key=lambda n: (hops[n], n))
-    return Move("move_to", {"location": places[0]}) if places else None
+    nearest = _nearest(belief, set())
+    return None if nearest is None else Move("move_to", {"location": nearest})
 
 
 def _towards(belief: Belief, goals: Mapping[str, Goal], unseen: list[str], free: bool) -> Move:
@@ -111,12 +110,18 @@ def _search(belief: Belief, missing: list[str], unseen: list[str], free: bool) -
     if belief.location in boxes:
         here = next(b for b, loc in sorted(belief.containers.items()) if loc == belief.location and b in belief.closed)
         return Move("open", {"furniture": here})
-    hops = _hops(belief)
-    places = sorted((loc for loc in hops if loc not in belief.seen or loc in boxes), key=lambda n: (hops[n], n))
-    if places:
-        return Move("move_to", {"location": places[0]})
+    nearest = _nearest(belief, boxes)
+    if nearest is not None:
+        return Move("move_to", {"location": nearest})
     lost = [f"the {o}" for o in missing] + [f"a place called '{loc}'" for loc in unseen]
     return Move(None, reason=f"I searched every location and container and did not find {' or '.join(lost)}.")
+
+
+def _nearest(belief: Belief, also: set[str]) -> str | None:
+    """The nearest location (by map hops, then name) not seen yet, or one of `also`; None when none."""
+    hops = _hops(belief)
+    places = sorted((loc for loc in hops if loc not in belief.seen or loc in also), key=lambda n: (hops[n], n))
+    return places[0] if places else None
 
 
 def _hops(belief: Belief) -> dict[str, int]:

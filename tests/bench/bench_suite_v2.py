@@ -90,7 +90,8 @@ def regenerated() -> dict[str, Any]:
 
 
 def oracle(outcomes: list[Outcome]) -> dict[str, Any]:
-    """The oracle's rates on dev, overall and per family."""
+    """The oracle's rates on dev, overall and per family (the recovery family's is the rate on the
+    instances where something goes wrong: no other family has perturbations)."""
     out: dict[str, Any] = {}
 
     def rate(rows: list[Outcome]) -> float | None:
@@ -101,7 +102,6 @@ def oracle(outcomes: list[Outcome]) -> dict[str, Any]:
     searching = [o for o in feasible if o.instance.observe in ("location", "room")]
     out["suite_v2.oracle.feasible_success"] = rate(feasible)
     out["suite_v2.oracle.infeasible_honest_failure"] = rate([o for o in outcomes if not o.instance.feasible])
-    out["suite_v2.oracle.recovery"] = rate([o for o in outcomes if o.instance.perturbations])
     if observed:
         ratio = sum(o.robot_actions for o in observed) / sum(o.instance.optimal_steps for o in observed)
         out["suite_v2.oracle.actions_over_optimal"] = round(ratio, 3)

@@ -14,15 +14,13 @@ from collections.abc import AsyncIterator
 from pathlib import Path
 
 import pytest
-from mcp import Client
 
 from robocog.agent.client.connection import Robot
 from robocog.agent.suitegen.generator import generate
 from robocog.server import session
-from robocog.server.app import build_server
-from robocog.server.config import SessionConfig
 from robocog.shared.suite import Instance, load_suite
 from tests.bench.bench_suite import run_instance
+from tests.helpers import in_process_robot
 
 pytestmark = pytest.mark.anyio
 
@@ -53,12 +51,9 @@ async def robot(tmp_path_factory: pytest.TempPathFactory, instances: dict[str, I
     # The server looks instances up in the shipped suites only; these live in a temporary one.
     patch = pytest.MonkeyPatch()
     patch.setattr(session, "find_instance", lambda suite, instance_id: instances[instance_id])
-    server = build_server(SessionConfig(data_dir=tmp_path_factory.mktemp("memory")), profile="eval")
     try:
-        async with Client(server) as client:
-            tools = (await client.list_tools()).tools
-            prompt = await client.get_prompt("robot_system")
-            yield Robot(client, tools, prompt.messages[0].content.text, {}, "in-memory")  # type: ignore[union-attr]
+        async with in_process_robot(tmp_path_factory.mktemp("memory")) as robot:
+            yield robot
     finally:
         patch.undo()
 

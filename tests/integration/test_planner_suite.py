@@ -17,17 +17,15 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from mcp import Client
 
 from robocog.agent.client.connection import Robot
 from robocog.agent.policies.belief import Belief, Goal, understand
 from robocog.agent.policies.planner import Call, optimal_plan
-from robocog.server.app import build_server
-from robocog.server.config import SessionConfig
 from robocog.shared.scene import Scene
 from robocog.shared.scene_files import load_scene, scene_path
 from robocog.shared.suite import Instance, load_split
 from tests.bench.bench_suite import run_instance
+from tests.helpers import in_process_robot
 
 pytestmark = pytest.mark.anyio
 
@@ -231,11 +229,8 @@ def anyio_backend() -> str:
 
 @pytest.fixture(scope="module")
 async def robot(tmp_path_factory: pytest.TempPathFactory) -> AsyncIterator[Robot]:
-    server = build_server(SessionConfig(data_dir=tmp_path_factory.mktemp("memory")), profile="eval")
-    async with Client(server) as client:
-        tools = (await client.list_tools()).tools
-        prompt = await client.get_prompt("robot_system")
-        yield Robot(client, tools, prompt.messages[0].content.text, {}, "in-memory")  # type: ignore[union-attr]
+    async with in_process_robot(tmp_path_factory.mktemp("memory")) as robot:
+        yield robot
 
 
 def one_per_family(instances: list[Instance]) -> list[Instance]:

@@ -10,7 +10,6 @@ from __future__ import annotations
 from collections.abc import AsyncIterator
 
 import pytest
-from mcp import Client
 
 from robocog.agent.analysis.recovery import recovery_scores
 from robocog.agent.client.connection import Robot
@@ -18,10 +17,9 @@ from robocog.agent.client.loop import run_episode
 from robocog.agent.client.settings import AgentSettings
 from robocog.agent.client.trace_sinks import Trace
 from robocog.agent.suitegen.generator import generate
-from robocog.server.app import build_server
-from robocog.server.config import SessionConfig
 from robocog.shared.suite import Instance, load_suite
 from robocog.shared.trace import Perturbed, ToolCall, TraceEvent
+from tests.helpers import in_process_robot
 
 pytestmark = pytest.mark.anyio
 
@@ -51,11 +49,8 @@ def instances(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Instance]:
 async def robot(tmp_path_factory: pytest.TempPathFactory, instances: dict[str, Instance]) -> AsyncIterator[Robot]:
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr("robocog.server.session.find_instance", lambda suite, instance_id: instances[instance_id])
-        server = build_server(SessionConfig(data_dir=tmp_path_factory.mktemp("memory")), profile="eval")
-        async with Client(server) as client:
-            tools = (await client.list_tools()).tools
-            prompt = await client.get_prompt("robot_system")
-            yield Robot(client, tools, prompt.messages[0].content.text, {}, "in-memory")  # type: ignore[union-attr]
+        async with in_process_robot(tmp_path_factory.mktemp("memory")) as robot:
+            yield robot
 
 
 async def attempt(robot: Robot, instance: Instance) -> tuple[bool | None, bool, list[TraceEvent]]:

@@ -8,7 +8,6 @@ import hashlib
 from collections.abc import AsyncIterator
 
 import pytest
-from mcp import Client
 
 from robocog.agent.client.connection import Robot
 from robocog.agent.policies.belief import Belief, understand
@@ -16,12 +15,11 @@ from robocog.agent.policies.planner import optimal_plan
 from robocog.agent.suitegen import stats
 from robocog.agent.suitegen.generator import generate
 from robocog.agent.symbolic import SceneNames
-from robocog.server.app import build_server
-from robocog.server.config import SessionConfig
 from robocog.shared.family_files import CAPABILITIES, LONG_HORIZON_STEPS
 from robocog.shared.scene_files import generated_scene_names, load_scene, scene_path
 from robocog.shared.suite import SUITES_DIR, Instance, dump_instances, load_split, load_suite
 from tests.bench.bench_suite import run_instance
+from tests.helpers import in_process_robot
 from tests.integration.test_planner_suite import look, scene, start
 
 V2 = load_suite("robocog-v2")
@@ -116,11 +114,8 @@ def anyio_backend() -> str:
 
 @pytest.fixture(scope="module")
 async def robot(tmp_path_factory: pytest.TempPathFactory) -> AsyncIterator[Robot]:
-    server = build_server(SessionConfig(data_dir=tmp_path_factory.mktemp("memory")), profile="eval")
-    async with Client(server) as client:
-        tools = (await client.list_tools()).tools
-        prompt = await client.get_prompt("robot_system")
-        yield Robot(client, tools, prompt.messages[0].content.text, {}, "in-memory")  # type: ignore[union-attr]
+    async with in_process_robot(tmp_path_factory.mktemp("memory")) as robot:
+        yield robot
 
 
 @pytest.mark.anyio
