@@ -37,7 +37,10 @@ def as_openai(messages: Sequence[ChatMessage]) -> list[dict[str, Any]]:
             ]
             out.append({"role": "assistant", "content": m.text, "tool_calls": calls})
         elif isinstance(m, ChatMessageTool):
-            out.append({"role": "tool", "tool_call_id": m.tool_call_id, "content": m.text})
+            # A tool that failed (the server's isError: a blocked corridor, a position out of reach) has
+            # its result in `error`, not in the content: the planner must read it all the same.
+            text = m.text or (m.error.message if m.error is not None else "")
+            out.append({"role": "tool", "tool_call_id": m.tool_call_id, "content": text})
         else:
             out.append({"role": m.role, "content": m.text})
     return out

@@ -135,3 +135,17 @@ def test_success_per_capability_counts_an_instance_under_each_of_its_tags() -> N
     per_capability: Any = capability()  # a metric over sample scores (Inspect's protocol)
     assert per_capability(scores) == {"honesty": 0.0, "memory": 0.5, "planning": 1.0}
     assert per_capability([scored(1.0, [])]) == {}
+
+
+def test_the_planner_reads_a_failed_tool_s_result_inspect_keeps_as_an_error() -> None:
+    # A blocked corridor is an isError result: Inspect keeps its text in `error`, the content empty.
+    from inspect_ai.model import ChatMessageTool
+    from inspect_ai.tool import ToolCallError
+
+    from robocog.inspect._planner import as_openai
+
+    blocked = '{"status": "failure", "message": "The way from Study to Study Door is blocked."}'
+    message = ChatMessageTool(
+        content="", tool_call_id="c1", function="move_to", error=ToolCallError("unknown", blocked)
+    )
+    assert as_openai([message]) == [{"role": "tool", "tool_call_id": "c1", "content": blocked}]
