@@ -3,47 +3,23 @@
 The base is a static box that the world drives kinematically along navigation paths (x, y, yaw);
 the arm is a fixed-base multibody mounted on it whose joints follow interpolated trajectories.
 The arm's first joint is made continuous (no rotation limit), as in the paper, by deriving a copy
-of the URDF at run time with that joint's type changed and the mesh paths made absolute.
+of the URDF at run time with that joint's type changed (see `urdf.py`).
 """
 
 from __future__ import annotations
 
 import functools
-import hashlib
 import math
-import re
-import tempfile
 from collections.abc import Iterator, Sequence
-from pathlib import Path
 
 import numpy as np
 import pybullet
 from pybullet_utils.bullet_client import BulletClient
 
-from robocog.shared.robot_spec import RobotSpec, resolve_urdf, revolute_joint_pattern
+from robocog.server.world.urdf import derived_urdf
+from robocog.shared.robot_spec import RobotSpec
 
 Vec3 = tuple[float, float, float]
-
-
-def derived_urdf(spec: RobotSpec) -> Path:
-    """A copy of the arm's URDF with `continuous_joints` unlimited and absolute mesh paths (cached)."""
-    source = resolve_urdf(spec.arm.urdf)
-    text = source.read_text(encoding="utf-8")
-    text = re.sub(r'filename="(?!/)([^"]+)"', lambda m: f'filename="{(source.parent / m.group(1)).as_posix()}"', text)
-    for joint in spec.arm.continuous_joints:
-        text, count = re.subn(revolute_joint_pattern(joint), r'\1"continuous"', text)
-        if count != 1:
-            raise ValueError(f"{source}: no revolute joint named {joint!r} to make continuous")
-        block = re.compile(rf'(<joint\s+name="{re.escape(joint)}".*?</joint>)', re.S)
-        text = block.sub(lambda m: re.sub(r'\s(lower|upper)="[^"]*"', "", m.group(1)), text)
-    digest = hashlib.sha256(text.encode()).hexdigest()[:16]
-    target = Path(tempfile.gettempdir()) / "robocog-urdf" / f"{source.stem}-{digest}.urdf"
-    if not target.exists():
-        target.parent.mkdir(parents=True, exist_ok=True)
-        tmp = target.with_suffix(f".{id(text)}.tmp")
-        tmp.write_text(text, encoding="utf-8")
-        tmp.replace(target)  # atomic: parallel workers never see a half-written file
-    return target
 
 
 class Robot:
