@@ -48,13 +48,28 @@ def _tool_result(result: BaseModel) -> CallToolResult:
     return CallToolResult(content=content, structured_content=data, is_error=data.get("status") == "failure")
 
 
-def _progress(ctx: Context[AppState]) -> ProgressFn:
-    """A progress callback for the worker thread that sends MCP progress notifications."""
+def _progress(ctx: Context[AppState]) -> ProgressFn | None:
+    """A progress callback for the worker thread that sends MCP progress notifications, or None when
+    the caller sent no progress token (each report is a hop from the worker thread to the loop)."""
+    if not _wants_progress(ctx):
+        return None
 
     def report(done: float, total: float, message: str) -> None:
         anyio.from_thread.run(ctx.report_progress, done, total, message)
 
     return report
+
+
+def _wants_progress(ctx: Context[AppState]) -> bool:
+    """Whether the caller asked for progress: a token in the request's _meta over JSON-RPC; always on
+    the SDK's in-process dispatcher, which carries a caller's progress callback without a token (mcp
+    2.3 gives a handler no public way to its dispatch context: `_request_outbound` is read here)."""
+    request = ctx.request_context
+    meta = request.meta or {}
+    if meta.get("progress_token") is not None or meta.get("progressToken") is not None:
+        return True
+    transport = getattr(getattr(request.session, "_request_outbound", None), "transport", None)
+    return getattr(transport, "kind", None) == "direct"
 
 
 def _model_label(ctx: Context[AppState]) -> str | None:

@@ -46,6 +46,27 @@ async def test_t1_then_t2_over_stdio(tmp_path: Path) -> None:
         await run_t1_then_t2(client)
 
 
+async def test_progress_goes_only_to_a_caller_that_asked_for_it(tmp_path: Path) -> None:
+    """Over a real transport a progress token in the call's _meta asks for progress; a call without
+    one gets no progress notification (the server does not even build them)."""
+    arrived: list[Any] = []
+
+    async def messages(message: Any) -> None:
+        arrived.append(message)
+
+    async def on_progress(progress: float, total: float | None, message: str | None) -> None:
+        updates.append(progress)
+
+    updates: list[float] = []
+    params = stdio_params("--profile", "eval", "--data-dir", str(tmp_path))
+    async with Client(params, message_handler=messages) as client:
+        quiet = await client.call_tool("move_to", {"location": "Kitchen Shelf"})
+        assert not quiet.is_error and updates == []
+        assert not [m for m in arrived if "Progress" in type(getattr(m, "root", m)).__name__], arrived
+        heard = await client.call_tool("move_to", {"location": "Kitchen Table"}, progress_callback=on_progress)
+        assert not heard.is_error and updates and updates == list(range(1, len(updates) + 1)), updates
+
+
 @pytest.fixture
 def http_url(tmp_path: Path) -> Iterator[str]:
     with http_server(tmp_path / "server.log", "--profile", "eval", "--data-dir", str(tmp_path / "memory")) as url:
