@@ -157,7 +157,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     try:
         if args.transport == "stdio":
-            server.run("stdio")
+            import anyio
+
+            from robocog.server.stdio import serve_stdio
+
+            anyio.run(serve_stdio, server)
         else:
             routed = os.environ.get("ROBOCOG_FLEET_PROCESS")  # a process of a fleet behind a router
             where = f"fleet process {routed} ready" if routed else f"MCP over streamable HTTP at {http.url}"

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import subprocess
 from collections.abc import Iterator
 from pathlib import Path
@@ -94,16 +95,48 @@ async def test_memory_persists_across_a_restart_and_namespaces_stay_apart(tmp_pa
         assert found.structured_content is not None and found.structured_content["results"] == []
 
 
+INITIALIZE = (
+    '{"jsonrpc":"2.0","id":1,"method":"initialize","params":{"protocolVersion":"2025-06-18",'
+    '"capabilities":{},"clientInfo":{"name":"test","version":"1"}}}\n'
+)
+LIST_TOOLS = '{"jsonrpc":"2.0","method":"notifications/initialized"}\n{"jsonrpc":"2.0","id":2,"method":"tools/list"}\n'
+
+
 def test_stdout_carries_only_the_protocol(tmp_path: Path) -> None:
-    request = (
-        '{"jsonrpc":"2.0","id":1,"method":"initialize","params":{"protocolVersion":"2025-06-18",'
-        '"capabilities":{},"clientInfo":{"name":"test","version":"1"}}}\n'
-    )
     done = subprocess.run(
-        [*server_command(), "--data-dir", str(tmp_path)], input=request, capture_output=True, text=True, timeout=60
+        [*server_command(), "--data-dir", str(tmp_path)], input=INITIALIZE, capture_output=True, text=True, timeout=60
     )
     lines = [line for line in done.stdout.splitlines() if line.strip()]
     assert lines and all(line.startswith('{"jsonrpc":"2.0"') for line in lines), done.stdout
+
+
+def test_stdio_from_a_pipe_and_from_files(tmp_path: Path) -> None:
+    """stdin and stdout are read and written on the event loop when they are pipes, and through the
+    SDK's own transport when they are regular files (the loop cannot watch those): both serve. (At
+    the end of stdin the SDK cancels calls still running: their caller is gone.)"""
+    with subprocess.Popen(
+        [*server_command(), "--data-dir", str(tmp_path / "a")],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+        text=True,
+    ) as server:
+        assert server.stdin is not None and server.stdout is not None
+        server.stdin.write(INITIALIZE + LIST_TOOLS)
+        server.stdin.flush()
+        answers = [json.loads(server.stdout.readline()) for _ in range(2)]
+        server.stdin.close()
+        assert server.wait(timeout=60) == 0
+    assert answers[0]["result"]["serverInfo"]["name"] == "robocog"
+    assert any(t["name"] == "move_to" for t in answers[1]["result"]["tools"])
+
+    (tmp_path / "in.jsonl").write_text(INITIALIZE, encoding="utf-8")
+    with (tmp_path / "in.jsonl").open("rb") as source, (tmp_path / "out.jsonl").open("wb") as sink:
+        cmd = [*server_command(), "--data-dir", str(tmp_path / "b")]
+        done = subprocess.run(cmd, stdin=source, stdout=sink, stderr=subprocess.PIPE, timeout=60)
+    assert done.returncode == 0, done.stderr
+    answer = json.loads((tmp_path / "out.jsonl").read_text(encoding="utf-8"))
+    assert answer["result"]["serverInfo"]["name"] == "robocog"
 
 
 def test_a_bad_scene_fails_fast_with_the_reason(tmp_path: Path) -> None:
