@@ -91,8 +91,9 @@ _collector: ContextVar[Callable[[LogEntry], None] | None] = ContextVar("robocog_
 
 
 @contextmanager
-def collecting(sink: Callable[[LogEntry], None]) -> Iterator[None]:
-    """Inside this block (and the worker threads it starts), the server's records also go to `sink`."""
+def collecting(sink: Callable[[LogEntry], None] | None) -> Iterator[None]:
+    """Inside this block (and the worker threads it starts), the server's records also go to `sink`
+    (None: to no client, whatever an enclosing block collects)."""
     token = _collector.set(sink)
     try:
         yield
@@ -196,6 +197,13 @@ class Clients:
             return level in LEVELS and at_least(entry.level, level)
         client = self._clients.get(connection_of(ctx))
         return client is not None and client.wants(entry)
+
+    def listening(self, ctx: ServerRequestContext[Any, Any]) -> bool:
+        """Whether the client of `ctx` asked for log records at all (else a call collects none)."""
+        if ctx.protocol_version in MODERN_PROTOCOL_VERSIONS:
+            return (ctx.meta or {}).get(LOG_LEVEL_META_KEY) in LEVELS
+        client = self._clients.get(connection_of(ctx))
+        return client is not None and client.level is not None
 
     async def send(self, ctx: ServerRequestContext[Any, Any], entries: list[LogEntry]) -> None:
         """A call's records to its caller, on the call's own stream, as far as it asked for them."""

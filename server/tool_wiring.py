@@ -145,13 +145,16 @@ def register_tool(mcp: MCPServer[AppState], tool: Tool[Any], access: Access) -> 
                 raise ToolError(str(exc)) from None
         caller = Caller(progress=_progress(ctx), model=_model_label(ctx), counts=counts)
         records: list[LogEntry] = []
+        # The call's log records are collected only for a client that asked for them.
+        listening = state.clients.listening(ctx.request_context)
         try:
-            with collecting(records.append):
+            with collecting(records.append if listening else None):
                 result, happened = await state.run_on(
                     robot, lambda session: (session.invoke(tool, arguments, caller), session.perturbations)
                 )
         finally:
-            await state.clients.send(ctx.request_context, records)
+            if records:
+                await state.clients.send(ctx.request_context, records)
         # A blocked open or close failed, but the drawer or door moved as far as it could.
         moved = getattr(result, "status", None) != "failure" or getattr(result, "error", None) == "blocked"
         if tool.changes_world and moved:

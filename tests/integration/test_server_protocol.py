@@ -259,3 +259,21 @@ async def test_a_2026_client_listens_for_world_updates(modern: Client) -> None:
             async for event in subscription:
                 assert getattr(event, "uri", None) == STATE
                 break
+
+
+async def test_a_call_collects_log_records_only_for_a_client_that_asked(
+    desktop: Client, inbox: Inbox, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """No level set: a call's records (a failed grab's notice) are not even turned into entries."""
+    from robocog.server import clients
+
+    made: list[Any] = []
+    real = clients.LogEntry.of
+    monkeypatch.setattr(clients.LogEntry, "of", classmethod(lambda cls, record: made.append(record) or real(record)))
+    await desktop.call_tool("look_around", {})  # the robot is ready
+    made.clear()
+    await desktop.call_tool("grab", {"object": "tv"})
+    assert made == [] and inbox.logs == []
+    await desktop.set_logging_level("notice")
+    await desktop.call_tool("grab", {"object": "tv"})
+    assert len(made) == 1 and inbox.log_texts()[-1].startswith("grab failed")
