@@ -16,9 +16,11 @@ from __future__ import annotations
 
 import hashlib
 import math
+import os
 import re
 import struct
 import tempfile
+import threading
 from functools import cache
 from pathlib import Path
 
@@ -33,11 +35,24 @@ _ATTRIBUTE = r'\b{}="([^"]*)"'
 
 
 def derived_urdf(spec: RobotSpec) -> Path:
-    """The arm's URDF with `continuous_joints` unlimited, absolute mesh paths and box collisions (cached)."""
-    source = resolve_urdf(spec.arm.urdf)
+    """The arm's URDF with `continuous_joints` unlimited, absolute mesh paths and box collisions
+    (derived once per process and arm, written again if the file has gone)."""
+    text, target = _derived(spec.arm.urdf, tuple(spec.arm.continuous_joints))
+    if not target.exists():
+        target.parent.mkdir(parents=True, exist_ok=True)
+        tmp = target.with_suffix(f".{os.getpid()}.{threading.get_ident()}.tmp")
+        tmp.write_text(text, encoding="utf-8")
+        tmp.replace(target)  # atomic: parallel workers never see a half-written file
+    return target
+
+
+@cache
+def _derived(urdf: str, continuous_joints: tuple[str, ...]) -> tuple[str, Path]:
+    """The derived URDF's text and where it is written."""
+    source = resolve_urdf(urdf)
     text = source.read_text(encoding="utf-8")
     text = re.sub(r'filename="(?!/)([^"]+)"', lambda m: f'filename="{(source.parent / m.group(1)).as_posix()}"', text)
-    for joint in spec.arm.continuous_joints:
+    for joint in continuous_joints:
         text, count = re.subn(revolute_joint_pattern(joint), r'\1"continuous"', text)
         if count != 1:
             raise ValueError(f"{source}: no revolute joint named {joint!r} to make continuous")
@@ -45,13 +60,7 @@ def derived_urdf(spec: RobotSpec) -> Path:
         text = block.sub(lambda m: re.sub(r'\s(lower|upper)="[^"]*"', "", m.group(1)), text)
     text = _COLLISION.sub(lambda m: boxed_collision(m.group(0)), text)
     digest = hashlib.sha256(text.encode()).hexdigest()[:16]
-    target = Path(tempfile.gettempdir()) / "robocog-urdf" / f"{source.stem}-{digest}.urdf"
-    if not target.exists():
-        target.parent.mkdir(parents=True, exist_ok=True)
-        tmp = target.with_suffix(f".{id(text)}.tmp")
-        tmp.write_text(text, encoding="utf-8")
-        tmp.replace(target)  # atomic: parallel workers never see a half-written file
-    return target
+    return text, Path(tempfile.gettempdir()) / "robocog-urdf" / f"{source.stem}-{digest}.urdf"
 
 
 def boxed_collision(block: str) -> str:
