@@ -66,6 +66,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         allowed_origins=tuple(args.allowed_origin),
         max_sessions=int(args.max_sessions or max(DEFAULT_MAX_SESSIONS, args.robots + 4)),
         session_idle_s=args.session_idle_s,
+        json_response=args.json_response,
         machine_names=() if args.transport == "stdio" or is_loopback(args.host) else machine_names(),
     )
     access = AccessConfig(

@@ -102,6 +102,12 @@ def build_parser() -> argparse.ArgumentParser:
         help=f"close an HTTP session after this many seconds without a request (default: {DEFAULT_SESSION_IDLE_S:g})",
     )
     a.add_argument(
+        "--json-response",
+        action="store_true",
+        help="answer each HTTP call with one JSON body instead of an event stream: cheaper, but no progress or "
+        "log notification reaches the caller during a call (a harness's fleets, which never ask for them)",
+    )
+    a.add_argument(
         "--confirm-actions",
         action="store_true",
         help="ask the user (MCP elicitation) before every move_to, grab and place: for desktop use",

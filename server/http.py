@@ -52,6 +52,8 @@ class HttpOptions:
     allowed_origins: tuple[str, ...] = ()
     max_sessions: int = DEFAULT_MAX_SESSIONS
     session_idle_s: float = DEFAULT_SESSION_IDLE_S
+    #: Answer each POST with one JSON body, not an event stream (`--json-response`).
+    json_response: bool = False
     #: Added to every Host check (tests and `--allowed-host`); the machine's names are found at start.
     machine_names: tuple[str, ...] = field(default_factory=tuple)
 
@@ -346,6 +348,7 @@ def build_app(mcp: MCPServer[Any], options: HttpOptions) -> ASGIApp:
         transport_security=options.transport_security(),
         max_sessions=options.max_sessions,
         session_idle_timeout=options.session_idle_s,
+        json_response=options.json_response,
     )
     capped = SessionCapMessage(app, max_sessions=options.max_sessions, idle_s=options.session_idle_s)
     return VanishedClients(capped, idle_s=options.session_idle_s)

@@ -279,12 +279,17 @@ def raw_initialize(url: str) -> Any:
 
 def raw_call(url: str, sid: str, tool: str, **arguments: Any) -> str:
     """POST `tools/call` on session `sid` with httpx: the answer's status code and text."""
+    answer = raw_answer(url, sid, tool, **arguments)
+    return f"{answer.status_code} {answer.text}"
+
+
+def raw_answer(url: str, sid: str, tool: str, **arguments: Any) -> Any:
+    """POST `tools/call` on session `sid` with httpx: the answer."""
     import httpx
 
     headers = HEADERS | {"mcp-session-id": sid, "mcp-protocol-version": "2025-11-25"}
     message = {"jsonrpc": "2.0", "id": 2, "method": "tools/call", "params": {"name": tool, "arguments": arguments}}
-    answer = httpx.post(url, json=message, headers=headers, timeout=60)
-    return f"{answer.status_code} {answer.text}"
+    return httpx.post(url, json=message, headers=headers, timeout=60)
 
 
 @asynccontextmanager

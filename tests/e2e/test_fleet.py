@@ -22,7 +22,7 @@ from robocog.server.fleet import Fleet, FleetFull
 from robocog.server.ownership import Driver
 from robocog.shared.evaluation import AttemptRow, EvalConfig
 from robocog.shared.protocol import DRIVER_META_KEY as DRIVER
-from tests.helpers import call_ok, free_port, http_server, http_session, raw_initialize
+from tests.helpers import call_ok, free_port, http_server, http_session, raw_answer, raw_initialize
 
 pytestmark = pytest.mark.anyio
 
@@ -206,9 +206,10 @@ async def test_one_shared_robot_when_the_capacity_is_one(tmp_path: Path) -> None
 
 async def test_a_fleet_in_two_processes_behind_one_address(tmp_path: Path) -> None:
     """Two robots in two processes (one each) behind a router: two sessions both drive (so they went
-    to different processes: each has room for one), and share memory across the processes."""
+    to different processes: each has room for one), and share memory across the processes. With
+    --json-response (as a harness starts its fleets) every call is answered with one JSON body."""
     args = ["--profile", "eval", "--robots", "2", "--processes", "2", "--data-dir", str(tmp_path / "memory")]
-    with http_server(tmp_path / "server.log", *args) as url:
+    with http_server(tmp_path / "server.log", *args, "--json-response") as url:
         async with http_session(url) as a, http_session(url) as b:
             await call_ok(a, "move_to", location="Kitchen Door")
             await call_ok(b, "move_to", location="Living Room")
@@ -221,6 +222,10 @@ async def test_a_fleet_in_two_processes_behind_one_address(tmp_path: Path) -> No
             third = await anyio.to_thread.run_sync(raw_initialize, url)
             assert third.status_code == 503
             assert "all 2 robots of this server are driven by other sessions" in third.json()["error"]["message"]
+        sid = (await anyio.to_thread.run_sync(raw_initialize, url)).headers["mcp-session-id"]
+        answer = await anyio.to_thread.run_sync(lambda: raw_answer(url, sid, "look_around"))
+        assert answer.headers["content-type"].startswith("application/json")
+        assert answer.json()["result"]["structuredContent"]["status"] == "success"
     log = (tmp_path / "server.log").read_text(errors="replace")
     assert "2 robots in 2 processes" in log and "fleet process 2/2 ready" in log
 
