@@ -207,11 +207,14 @@ async def _http_transport(url: str, token: str | None) -> AsyncIterator[Any]:
 async def _session(target: Any, spec: ServerSpec) -> AsyncIterator[Robot]:
     from mcp_types import Implementation
 
+    from robocog.agent.client.output_schemas import share_validators
+
     # Over HTTP, the initialize handshake: the server then knows this client by its session (the robot's
     # lease, its per-session state); the sessionless 2026-07-28 protocol would make every call a stranger.
     mode = "legacy" if spec.url else "auto"
     async with Client(target, client_info=Implementation(name="robocog", version=__version__), mode=mode) as client:
         tools = (await client.list_tools()).tools
+        share_validators(client.session, tools)  # compiled once per process, not per session
         prompt = await client.get_prompt("robot_system")
         system_prompt = "\n".join(getattr(m.content, "text", "") for m in prompt.messages)
         tasks: dict[str, str] = {}
