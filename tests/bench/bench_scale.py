@@ -2,6 +2,8 @@
 
 - A fleet's memory: one `robocog-server --robots 64` process, its RSS as 1, 2, 4, ... 64 sessions
   each take a robot; per additional robot (goal <= 40 MB) and for 64 robots (goal <= 2.5 GB).
+- `ROBOCOG_BENCH_AGAINST=/path/to/other/.venv/bin` measures another install's fleet memory and its
+  64 workers on fleets too (the previous release), right after this one's, as `scale.against.*`.
 - Throughput: the planner on T1 with `latency_s=1.0` per model turn, `--workers N`, each worker
   running two units: 16 workers with a server process each (`isolation: process`), and 16 and 64
   workers on fleets (`isolation: fleet`, a fleet per core). Reported:
@@ -25,6 +27,7 @@ import contextlib
 import json
 import os
 import resource
+import subprocess
 import sys
 import tempfile
 import time
@@ -257,13 +260,38 @@ def ray_overhead() -> dict[str, float]:
     }
 
 
+def against(only: str) -> dict[str, Any]:
+    """The same figures from another install (`ROBOCOG_BENCH_AGAINST=/its/.venv/bin`: the previous
+    release), measured right after this one's, under `scale.against.`; nothing when it is not set."""
+    bin_dir = os.environ.get("ROBOCOG_BENCH_AGAINST")
+    if not bin_dir:
+        return {}
+    done = subprocess.run(
+        [str(Path(bin_dir) / "python"), __file__, "--only", only],
+        capture_output=True,
+        text=True,
+        timeout=3600,
+        cwd=tempfile.gettempdir(),
+    )
+    if done.returncode != 0:
+        raise RuntimeError(f"{bin_dir}: bench_scale --only {only} failed: {done.stderr[-800:]}")
+    # PyBullet prints its build time on stdout: the figures are the JSON object after it.
+    start = 0 if done.stdout.startswith("{") else done.stdout.index("\n{") + 1
+    figures = json.loads(done.stdout[start:])
+    return {key.replace("scale.", "scale.against.", 1): value for key, value in figures.items()}
+
+
 def run(only: str = "") -> dict[str, Any]:
     figures: dict[str, Any] = {}
     if only in ("", "fleet"):
         figures.update(fleet_memory())
+        figures.update(against("fleet"))
+    if only == "throughput64":  # the previous release's side of the comparison (see `against`)
+        figures.update(throughput("fleet", 64))
     if only in ("", "throughput"):
         for isolation, n in THROUGHPUT:
             figures.update(throughput(isolation, n))
+        figures.update(against("throughput64"))
     if only in ("", "speedup"):
         figures.update(speedup())
     if only in ("", "ray"):
@@ -273,6 +301,6 @@ def run(only: str = "") -> dict[str, Any]:
 
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--only", choices=["fleet", "throughput", "speedup", "ray"], default="")
+    parser.add_argument("--only", choices=["fleet", "throughput", "throughput64", "speedup", "ray"], default="")
     args = parser.parse_args()
     print(json.dumps(run(args.only), indent=2))
