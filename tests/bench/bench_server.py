@@ -1,9 +1,12 @@
-"""Server figures: cold start over stdio, an in-memory read-only round trip, T1 as MCP calls over stdio."""
+"""Server figures: cold start over stdio, an in-memory read-only round trip, T1 as MCP calls over stdio;
+with `ROBOCOG_BENCH_AGAINST=/path/to/other/.venv/bin`, the same from that install right after."""
 
 from __future__ import annotations
 
 import json
+import os
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
@@ -79,7 +82,28 @@ def _p(values: list[float], q: float) -> float:
     return values[min(len(values) - 1, int(q * len(values)))]
 
 
+def against() -> dict[str, float]:
+    """The same figures from another install (`ROBOCOG_BENCH_AGAINST=/its/.venv/bin`: the previous
+    release), measured right after this one's, under `server.against.`; nothing when it is not set."""
+    bin_dir = os.environ.get("ROBOCOG_BENCH_AGAINST")
+    if not bin_dir:
+        return {}
+    env = {**os.environ, "ROBOCOG_BENCH_AGAINST": ""}
+    done = subprocess.run(
+        [str(Path(bin_dir) / "python"), __file__], capture_output=True, text=True, timeout=900, env=env
+    )
+    if done.returncode != 0:
+        raise RuntimeError(f"{bin_dir}: bench_server failed: {done.stderr[-800:]}")
+    start = 0 if done.stdout.startswith("{") else done.stdout.index("\n{") + 1  # after PyBullet's banner
+    figures = json.loads(done.stdout[start:])
+    return {k.replace("server.", "server.against.", 1): v for k, v in figures.items() if "target" not in k}
+
+
 def run() -> dict[str, float]:
+    return {**measure(), **against()}
+
+
+def measure() -> dict[str, float]:
     out: dict[str, float] = {}
     with tempfile.TemporaryDirectory() as tmp:
         colds = [anyio.run(_cold_start, f"{tmp}/cold{i}") for i in range(COLD_STARTS)]
