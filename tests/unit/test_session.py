@@ -290,3 +290,26 @@ def test_the_harness_gives_each_attempt_one_stable_episode_id() -> None:
     assert len(ids) == 7
     assert episode_id(*attempt) == episode_id(*attempt)
     assert all(len(i) <= EPISODE_ID_CHARS for i in ids)
+
+
+def test_a_recycled_robot_is_new_at_its_first_use_and_reset_world_rebuilds_its_world_once(
+    session: RobotSession, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    start = session.state().model_dump()
+    rebuilds: list[object] = []
+    real = type(session.world).reset
+    monkeypatch.setattr(type(session.world), "reset", lambda world, **kw: rebuilds.append(kw) or real(world, **kw))
+    for _ in range(2):  # a driver moves things and writes a note; the robot is recycled; the next one looks
+        session.call(TOOLS["grab"], object="cube")
+        session.call(TOOLS["move_to"], location="Living Room")
+        session.call(scratchpad.ADD, text="the last driver's note")
+        episode = session.episode.number
+        session.recycle()
+        assert session.call(scratchpad.VIEW).entries == 0 and session.episode.number == episode + 1
+        assert session.state().model_dump() == start and len(rebuilds) == 1
+        rebuilds.clear()
+    session.call(TOOLS["move_to"], location="Living Room")
+    session.recycle()
+    session.call(controls.RESET_WORLD, seed=4, memory_namespace="next-unit")  # the harness's first call
+    assert rebuilds == [{"seed": 4, "options": {"randomize": False}, "perturbations": None}]
+    assert session.state().model_dump() == start and session.namespace == "next-unit"
