@@ -8,7 +8,9 @@ A real `robocog-server --transport http` process on a free loopback port:
   previous release) and through robocog's (`agent.client.connection`: answers read to their end, idle
   connections kept through a model's turn), alternating in rounds on one server: the TCP connections
   each opened (httpcore's own debug log, on for both), the client's and the server's CPU per call, the
-  wall time, and the connections opened by calls after a pause longer than httpx's and uvicorn's 5 s.
+  wall time, and the connections opened by calls after a pause longer than httpx's and uvicorn's 5 s;
+- one JSON body per answer: robocog's client against a server started with `--json-response` (as the
+  harness starts its fleets), the same calls' CPU and time.
 """
 
 from __future__ import annotations
@@ -158,10 +160,29 @@ async def _reuse(url: str, pid: int) -> dict[str, object]:
     return figures
 
 
-def _reuse_in_child(url: str, pid: int) -> dict[str, object]:
+async def _json_calls(url: str, pid: int) -> dict[str, object]:
+    """robocog's client against a `--json-response` server (as the harness starts its fleets): the
+    CPU and time of REUSE_CALLS calls, to set beside `_reuse`'s event-stream answers."""
+    from robocog.agent.client.connection import _http_transport
+
+    async with Client(_http_transport(url, None), mode="legacy") as ours:
+        await ours.call_tool("look_around", {})
+        c0, s0, t0 = time.process_time(), _cpu_s(pid), time.perf_counter()
+        for _ in range(REUSE_CALLS):
+            await ours.call_tool("look_around", {})
+        wall, server, client = time.perf_counter() - t0, _cpu_s(pid) - s0, time.process_time() - c0
+    key = "http.json_response.robocog"
+    return {
+        f"{key}.client_cpu_ms_per_call": round(client / REUSE_CALLS * 1000, 2),
+        f"{key}.server_cpu_ms_per_call": round(server / REUSE_CALLS * 1000, 2),
+        f"{key}.wall_ms_per_call": round(wall / REUSE_CALLS * 1000, 2),
+    }
+
+
+def _reuse_in_child(url: str, pid: int, mode: str = "--reuse") -> dict[str, object]:
     """`_reuse` in a process of its own: `make bench` runs every bench in one process, and the threads
     an earlier bench left behind (an in-process server's) would count in this client's CPU and time."""
-    command = [sys.executable, __file__, "--reuse", url, str(pid)]
+    command = [sys.executable, __file__, mode, url, str(pid)]
     done = subprocess.run(command, capture_output=True, text=True, check=True, timeout=600)
     figures: dict[str, object] = json.loads(done.stdout)
     return figures
@@ -214,11 +235,18 @@ def run() -> dict[str, object]:
             finally:
                 proc.terminate()
                 proc.wait(timeout=10)
+        proc, url = _start(f"{data}/json", "--json-response")
+        try:
+            figures.update(_reuse_in_child(url, proc.pid, "--json"))
+        finally:
+            proc.terminate()
+            proc.wait(timeout=10)
     return figures
 
 
 if __name__ == "__main__":
-    if sys.argv[1:2] == ["--reuse"]:
-        print(json.dumps(anyio.run(_reuse, sys.argv[2], int(sys.argv[3]))))
+    if sys.argv[1:2] in (["--reuse"], ["--json"]):
+        measure = _reuse if sys.argv[1] == "--reuse" else _json_calls
+        print(json.dumps(anyio.run(measure, sys.argv[2], int(sys.argv[3]))))
     else:
         print(json.dumps(run(), indent=2))
