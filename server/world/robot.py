@@ -20,16 +20,19 @@ import numpy as np
 import pybullet
 from pybullet_utils.bullet_client import BulletClient
 
+from robocog.server.world.arm_meshes import reduced_stl, write_once
 from robocog.shared.robot_spec import RobotSpec, resolve_urdf, revolute_joint_pattern
 
 Vec3 = tuple[float, float, float]
 
 
 def derived_urdf(spec: RobotSpec) -> Path:
-    """A copy of the arm's URDF with `continuous_joints` unlimited and absolute mesh paths (cached)."""
+    """A copy of the arm's URDF with `continuous_joints` unlimited, absolute mesh paths and its STL
+    collision meshes reduced to their extreme points (`arm_meshes`; cached)."""
     source = resolve_urdf(spec.arm.urdf)
     text = source.read_text(encoding="utf-8")
     text = re.sub(r'filename="(?!/)([^"]+)"', lambda m: f'filename="{(source.parent / m.group(1)).as_posix()}"', text)
+    text = re.sub(r"<collision>.*?</collision>", _reduced_collision, text, flags=re.S)
     for joint in spec.arm.continuous_joints:
         text, count = re.subn(revolute_joint_pattern(joint), r'\1"continuous"', text)
         if count != 1:
@@ -37,13 +40,13 @@ def derived_urdf(spec: RobotSpec) -> Path:
         block = re.compile(rf'(<joint\s+name="{re.escape(joint)}".*?</joint>)', re.S)
         text = block.sub(lambda m: re.sub(r'\s(lower|upper)="[^"]*"', "", m.group(1)), text)
     digest = hashlib.sha256(text.encode()).hexdigest()[:16]
-    target = Path(tempfile.gettempdir()) / "robocog-urdf" / f"{source.stem}-{digest}.urdf"
-    if not target.exists():
-        target.parent.mkdir(parents=True, exist_ok=True)
-        tmp = target.with_suffix(f".{id(text)}.tmp")
-        tmp.write_text(text, encoding="utf-8")
-        tmp.replace(target)  # atomic: parallel workers never see a half-written file
-    return target
+    return write_once(Path(tempfile.gettempdir()) / "robocog-urdf" / f"{source.stem}-{digest}.urdf", text.encode())
+
+
+def _reduced_collision(block: re.Match[str]) -> str:
+    return re.sub(
+        r'filename="([^"]+)"', lambda m: f'filename="{reduced_stl(Path(m.group(1))).as_posix()}"', block.group(0)
+    )
 
 
 class Robot:
