@@ -95,8 +95,9 @@ def build(client: BulletClient, scene: Scene, robot_spec: RobotSpec) -> Sim:
     return sim
 
 
-#: The floor's checkerboard, as 2 x 2 texels: what TinyRenderer draws a plane with (a 1024 x 1024
-#: texture of four squares, sampled nearest at the same coordinates, so the frames are the same).
+#: The floor's checkerboard as 16 x 16 texels: the four squares TinyRenderer draws a plane with (a
+#: 1024 x 1024 texture of them). It samples nearest, so any even size draws the same frames to the
+#: bit; 16 keeps the squares' edges sharp where PyBullet's GUI filters textures linearly.
 FLOOR_TEXTURE = ASSETS_DIR / "scenes" / "floor.png"
 #: TinyRenderer's quad for a plane: 128 m either side of the origin, one texture repeat per metre.
 _PLANE_HALF = 128.0
@@ -115,8 +116,8 @@ _FLOOR_QUAD = {
 
 def make_floor(c: BulletClient) -> int:
     """The floor: a collision plane, drawn as the quad TinyRenderer would draw for it but with its
-    checkerboard as 2 x 2 texels: a plane's own visual costs 6 MB per client (a 1024 x 1024 texture
-    made for it and copied into the renderer), a third of a fleet robot's memory past PyBullet's own."""
+    checkerboard as 16 x 16 texels: a plane's own visual costs 6 MB per client (a 1024 x 1024 texture
+    made for it and copied into the renderer), nearly half of what a world added to its client."""
     vis = c.createVisualShape(pybullet.GEOM_MESH, **_FLOOR_QUAD)
     floor = c.createMultiBody(0, c.createCollisionShape(pybullet.GEOM_PLANE), vis, useMaximalCoordinates=True)
     c.changeVisualShape(floor, -1, rgbaColor=[0.9, 0.9, 0.88, 1], textureUniqueId=c.loadTexture(str(FLOOR_TEXTURE)))

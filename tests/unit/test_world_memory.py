@@ -3,7 +3,7 @@
 A fleet holds a PyBullet client per robot (`server/fleet.py`); two things a world loaded cost memory
 in every one of them and are now built lean (docs/figures.md, Scale):
 
-- the floor is drawn as TinyRenderer's quad for a plane with its checkerboard as 2 x 2 texels, not as
+- the floor is drawn as TinyRenderer's quad for a plane with its checkerboard as 16 x 16 texels, not as
   a plane (for which TinyRenderer makes a 1024 x 1024 texture and copies it: 6 MB a client), and the
   frames are the same to the bit;
 - the arm's STL collision meshes keep only their extreme points (`arm_meshes`), and every link's
