@@ -10,10 +10,11 @@ goes back to the pool when the driver goes (its connection closes, or it is sile
 and is made as good as new (`RobotSession.recycle`) before the next driver gets it.
 
 The robots share what is heavy and shareable: the embedding model (one per process already), and
-one Chroma client and collection handle per memory namespace in use (`Memories`, bounded). Each robot is its own
-PyBullet client (about 37 MB) and its calls are serialised by its own lock; different robots' calls
-run on worker threads side by side (PyBullet holds the GIL while it steps, so one process uses about
-one core: a machine's cores are used by a few fleet processes).
+one Chroma client and collection handle per memory namespace in use (`Memories`, bounded). Each
+robot is its own PyBullet client (about 32 MB a robot, most of it PyBullet's own: docs/figures.md,
+Scale; a shared client would make the robots one simulation) and its calls are serialised by its
+own lock; different robots' calls run on worker threads side by side (PyBullet holds the GIL while
+it steps, so one process uses about one core: a machine's cores are used by a few fleet processes).
 """
 
 from __future__ import annotations

@@ -13,6 +13,7 @@ import pybullet
 import pybullet_data
 from pybullet_utils.bullet_client import BulletClient
 
+from robocog.assets import ASSETS_DIR
 from robocog.server.world import containers
 from robocog.server.world.cstdio import c_output_discarded
 from robocog.server.world.navigation import SemanticMap
@@ -44,8 +45,7 @@ def build(client: BulletClient, scene: Scene, robot_spec: RobotSpec) -> Sim:
     c.setPhysicsEngineParameter(numSolverIterations=phys.solver_iterations, deterministicOverlappingPairs=1)
     # Maximal coordinates make every body a plain rigid body: about half the cost per step
     # of the default multibody representation, and resting bodies can sleep.
-    floor = c.createMultiBody(0, c.createCollisionShape(pybullet.GEOM_PLANE), -1, useMaximalCoordinates=True)
-    c.changeVisualShape(floor, -1, rgbaColor=[0.9, 0.9, 0.88, 1])
+    floor = make_floor(c)
     static_bodies = [floor, *(_wall(c, wall) for wall in scene.walls)]
     parts: dict[str, int] = {"floor": floor}
     part_top: dict[str, float] = {"floor": 0.0}
@@ -93,6 +93,35 @@ def build(client: BulletClient, scene: Scene, robot_spec: RobotSpec) -> Sim:
         _pose_at_start(sim, obj)
     sim.settle()
     return sim
+
+
+#: The floor's checkerboard as 16 x 16 texels: the four squares TinyRenderer draws a plane with (a
+#: 1024 x 1024 texture of them). It samples nearest, so any even size draws the same frames to the
+#: bit; 16 keeps the squares' edges sharp where PyBullet's GUI filters textures linearly.
+FLOOR_TEXTURE = ASSETS_DIR / "scenes" / "floor.png"
+#: TinyRenderer's quad for a plane: 128 m either side of the origin, one texture repeat per metre.
+_PLANE_HALF = 128.0
+_FLOOR_QUAD = {
+    "vertices": [
+        [_PLANE_HALF, -_PLANE_HALF, 0],
+        [_PLANE_HALF, _PLANE_HALF, 0],
+        [-_PLANE_HALF, _PLANE_HALF, 0],
+        [-_PLANE_HALF, -_PLANE_HALF, 0],
+    ],
+    "indices": [0, 1, 2, 0, 2, 3],
+    "uvs": [[_PLANE_HALF, _PLANE_HALF], [0, _PLANE_HALF], [0, 0], [_PLANE_HALF, 0]],
+    "normals": [[0, 0, 1]] * 4,
+}
+
+
+def make_floor(c: BulletClient) -> int:
+    """The floor: a collision plane, drawn as the quad TinyRenderer would draw for it but with its
+    checkerboard as 16 x 16 texels: a plane's own visual costs 6 MB per client (a 1024 x 1024 texture
+    made for it and copied into the renderer), nearly half of what a world added to its client."""
+    vis = c.createVisualShape(pybullet.GEOM_MESH, **_FLOOR_QUAD)
+    floor = c.createMultiBody(0, c.createCollisionShape(pybullet.GEOM_PLANE), vis, useMaximalCoordinates=True)
+    c.changeVisualShape(floor, -1, rgbaColor=[0.9, 0.9, 0.88, 1], textureUniqueId=c.loadTexture(str(FLOOR_TEXTURE)))
+    return floor
 
 
 def _wall(c: BulletClient, wall: Wall) -> int:

@@ -1,7 +1,9 @@
 """Scale figures, offline, with the scripted models' latency model.
 
 - A fleet's memory: one `robocog-server --robots 64` process, its RSS as 1, 2, 4, ... 64 sessions
-  each take a robot; per additional robot (goal <= 40 MB) and for 64 robots (goal <= 2.5 GB).
+  each take a robot; per additional robot (goal <= 30 MB) and for 64 robots (goal <= 2.5 GB). And
+  where a robot's memory goes, each part measured in a fresh process (`robot_memory.py`): PyBullet's
+  empty client, the floor and the arm as they were built and as they are, a whole world, a robot.
 - `ROBOCOG_BENCH_AGAINST=/path/to/other/.venv/bin` measures another install's fleet memory and its
   64 workers on fleets too (the previous release), right after this one's, as `scale.against.*`.
 - Throughput: the planner on T1 with `latency_s=1.0` per model turn, `--workers N`, each worker
@@ -16,7 +18,8 @@
   2 workers) on a local one-node Ray cluster (`ray start --head` on loopback, started before the
   clock runs) against the same study run locally; goal <= 1.3x.
 
-`python tests/bench/bench_scale.py [--only fleet|throughput|speedup|ray]` runs them alone.
+`python tests/bench/bench_scale.py [--only fleet|throughput|speedup|ray] [--record]` runs them alone
+(`--record` merges the figures into docs/figures.json, as `tests/bench/run.py --record` does).
 """
 
 from __future__ import annotations
@@ -107,8 +110,32 @@ def fleet_memory() -> dict[str, float]:
             asyncio.run(grow(url, pid))
     one, all_ = figures["scale.fleet_rss_1_robots_mb"], figures[f"scale.fleet_rss_{FLEET_ROBOTS}_robots_mb"]
     figures["scale.fleet_rss_per_extra_robot_mb"] = round((all_ - one) / (FLEET_ROBOTS - 1), 1)
-    figures["scale.fleet_rss_per_extra_robot_target_mb"] = 40
+    figures["scale.fleet_rss_per_extra_robot_target_mb"] = 30
     figures["scale.fleet_rss_64_robots_target_mb"] = 2560
+    return figures
+
+
+def robot_breakdown() -> dict[str, float]:
+    """MB per robot of each part (`robot_memory.py`), each in a process of its own."""
+    from tests.bench.robot_memory import PARTS
+
+    parts: dict[str, float] = {}
+    for part in PARTS:
+        done = subprocess.run(
+            [sys.executable, str(Path(__file__).with_name("robot_memory.py")), part],
+            capture_output=True,
+            text=True,
+            timeout=300,
+            check=True,
+        )
+        parts.update(json.loads(done.stdout.strip().splitlines()[-1]))
+    figures = {f"scale.robot_mb.{part}": mb for part, mb in parts.items()}
+    # What the world adds to PyBullet's empty client (the arm's visual meshes, which the camera draws,
+    # are nearly all of it); and what a robot adds to its world (its session, the first frame).
+    figures["scale.robot_mb.scene"] = round(parts["world"] - parts["client"], 2)
+    figures["scale.robot_mb.session"] = round(parts["robot"] - parts["world"], 2)
+    figures["scale.robot_mb.saved"] = round(parts["world_original"] - parts["world"], 2)
+    figures["scale.robot_mb.client_share"] = round(parts["client"] / parts["robot"], 2)
     return figures
 
 
@@ -285,7 +312,10 @@ def run(only: str = "") -> dict[str, Any]:
     figures: dict[str, Any] = {}
     if only in ("", "fleet"):
         figures.update(fleet_memory())
-        figures.update(against("fleet"))
+        figures.update(against("fleet_rss"))
+        figures.update(robot_breakdown())
+    if only == "fleet_rss":  # the previous release's side of the comparison (see `against`)
+        figures.update(fleet_memory())
     if only == "throughput64":  # the previous release's side of the comparison (see `against`)
         figures.update(throughput("fleet", 64))
     if only in ("", "throughput"):
@@ -301,6 +331,13 @@ def run(only: str = "") -> dict[str, Any]:
 
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--only", choices=["fleet", "throughput", "throughput64", "speedup", "ray"], default="")
+    parts = ["fleet", "fleet_rss", "throughput", "throughput64", "speedup", "ray"]
+    parser.add_argument("--only", choices=parts, default="")
+    parser.add_argument("--record", action="store_true", help="merge the figures into docs/figures.json")
     args = parser.parse_args()
-    print(json.dumps(run(args.only), indent=2))
+    measured = run(args.only)
+    print(json.dumps(measured, indent=2))
+    if args.record:
+        from tests.bench.run import RECORD, record
+
+        record(measured, RECORD)

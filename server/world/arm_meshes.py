@@ -1,0 +1,104 @@
+"""The arm's collision meshes, reduced to what the world reads of them: their bounding boxes.
+
+The arm collides with nothing (`robot.Robot` sets its collision masks to zero), so its collision
+shapes serve only for their bounding boxes: `getAABB` (the camera's test of whether the arm is in
+the frame) and the broadphase (`getOverlappingObjects`, free floor for an object that slipped).
+PyBullet makes a convex hull of an STL mesh's vertices and keeps every vertex it was given, and an
+STL lists a vertex once for each triangle at it: the iiwa's eight meshes are 44,000 points, about
+2 MB in every world of a fleet. The mesh derived here keeps only the points that lie furthest along
+a set of directions (the three axes both ways among them), a few hundred per link. Bullet computes a
+hull's bounding box from its points' extremes along the axes, and those points are kept, so every
+bounding box is the same to the bit (`tests/unit/test_world_memory.py` checks it).
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import math
+import struct
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
+
+#: How many directions (besides the six along the axes) a kept point must be the furthest along.
+DIRECTIONS = 250
+
+_TRIANGLE = np.dtype([("normal", "<f4", 3), ("vertices", "<f4", (3, 3)), ("attribute", "<u2")])
+
+
+def reduced_stl(source: Path) -> Path:
+    """A binary STL whose vertices are `source`'s extreme points (see the module), written once to
+    the temporary directory, named by its content; `source` itself when it is not a binary STL."""
+    reduced = _reduced(source)
+    if reduced is None:
+        return source
+    name, data = reduced
+    return write_once(Path(tempfile.gettempdir()) / "robocog-urdf" / name, data)
+
+
+@functools.cache
+def _reduced(source: Path) -> tuple[str, bytes] | None:
+    """The reduced mesh's file name and bytes (computed once per process: every reset builds the arm)."""
+    points = _stl_points(source)
+    if points is None:
+        return None
+    data = stl_bytes(extreme_points(points))
+    return f"{source.stem}-{hashlib.sha256(data).hexdigest()[:16]}.stl", data
+
+
+def extreme_points(points: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]:
+    """The distinct points of `points` that lie furthest along one of the directions (in their order)."""
+    along = points @ _directions().T.astype(np.float32)  # points x directions
+    chosen = np.unique(np.concatenate([along.argmax(axis=0), along.argmin(axis=0)]))
+    distinct = np.unique(points[chosen], axis=0)
+    return np.ascontiguousarray(distinct, dtype=np.float32)
+
+
+def stl_bytes(points: npt.NDArray[np.float32]) -> bytes:
+    """A binary STL of triangles made of `points`, three by three (the last repeated to fill one)."""
+    padded = np.concatenate([points, np.repeat(points[-1:], -len(points) % 3, axis=0)])
+    triangles = np.zeros(len(padded) // 3, dtype=_TRIANGLE)
+    triangles["vertices"] = padded.reshape(-1, 3, 3)
+    return (
+        b"robocog: extreme points of an arm's collision mesh".ljust(80, b" ")
+        + struct.pack("<I", len(triangles))
+        + triangles.tobytes()
+    )
+
+
+def write_once(target: Path, data: bytes) -> Path:
+    """`data` at `target` unless it is there already (atomically: parallel workers never see half a file)."""
+    if not target.exists():
+        target.parent.mkdir(parents=True, exist_ok=True)
+        tmp = target.with_suffix(f".{id(data)}.tmp")
+        tmp.write_bytes(data)
+        tmp.replace(target)
+    return target
+
+
+def _stl_points(source: Path) -> npt.NDArray[np.float32] | None:
+    """Every vertex of a binary STL (once per triangle at it), or None when `source` is not one."""
+    if source.suffix.lower() != ".stl" or not source.is_file():
+        return None
+    data = source.read_bytes()
+    if len(data) < 84:
+        return None
+    (count,) = struct.unpack_from("<I", data, 80)
+    if count == 0 or len(data) != 84 + 50 * count:  # an ASCII STL, or not an STL
+        return None
+    triangles = np.frombuffer(data, dtype=_TRIANGLE, count=count, offset=84)
+    return np.ascontiguousarray(triangles["vertices"].reshape(-1, 3))
+
+
+@functools.cache
+def _directions() -> npt.NDArray[np.float64]:
+    """The six axis directions, then `DIRECTIONS` spread evenly over the sphere (a Fibonacci lattice)."""
+    axes = np.vstack([np.eye(3), -np.eye(3)])
+    i = np.arange(DIRECTIONS) + 0.5
+    z = 1 - 2 * i / DIRECTIONS
+    r = np.sqrt(1 - z * z)
+    phi = i * math.pi * (3 - math.sqrt(5))
+    return np.vstack([axes, np.column_stack([r * np.cos(phi), r * np.sin(phi), z])])
