@@ -84,8 +84,8 @@ def _builder(part: str) -> tuple[Callable[[Any], Any], bool]:
         return session
 
     if part in ("arm", "arm_original"):
-        urdf = arm_urdf(part == "arm")
-        return lambda c: c.loadURDF(urdf, useFixedBase=True, flags=pybullet.URDF_USE_INERTIA_FROM_FILE), True
+        arm = arm_urdf(part == "arm")
+        return lambda c: c.loadURDF(arm, useFixedBase=True, flags=pybullet.URDF_USE_INERTIA_FROM_FILE), True
     if part in ("floor", "floor_plane"):
         return (builder.make_floor if part == "floor" else plane), True
     if part in ("world", "world_original"):

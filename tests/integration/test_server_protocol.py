@@ -269,7 +269,12 @@ async def test_a_call_collects_log_records_only_for_a_client_that_asked(
 
     made: list[Any] = []
     real = clients.LogEntry.of
-    monkeypatch.setattr(clients.LogEntry, "of", classmethod(lambda cls, record: made.append(record) or real(record)))
+
+    def counted(cls: type[clients.LogEntry], record: Any) -> clients.LogEntry:
+        made.append(record)
+        return real(record)
+
+    monkeypatch.setattr(clients.LogEntry, "of", classmethod(counted))
     await desktop.call_tool("look_around", {})  # the robot is ready
     made.clear()
     await desktop.call_tool("grab", {"object": "tv"})

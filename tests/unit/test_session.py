@@ -298,7 +298,12 @@ def test_a_recycled_robot_is_new_at_its_first_use_and_reset_world_rebuilds_its_w
     start = session.state().model_dump()
     rebuilds: list[object] = []
     real = type(session.world).reset
-    monkeypatch.setattr(type(session.world), "reset", lambda world, **kw: rebuilds.append(kw) or real(world, **kw))
+
+    def counted(world: Any, **kw: Any) -> Any:
+        rebuilds.append(kw)
+        return real(world, **kw)
+
+    monkeypatch.setattr(type(session.world), "reset", counted)
     for _ in range(2):  # a driver moves things and writes a note; the robot is recycled; the next one looks
         session.call(TOOLS["grab"], object="cube")
         session.call(TOOLS["move_to"], location="Living Room")

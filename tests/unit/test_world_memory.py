@@ -92,7 +92,7 @@ def test_extreme_points_keep_the_bounding_box_to_the_bit() -> None:
 def test_the_arms_bounding_boxes_are_the_same_as_with_the_original_meshes(world: World) -> None:
     lean_urdf = urdf.derived_urdf(world.robot_spec)
     lean = arm_meshes.reduced_stl
-    arm_meshes.reduced_stl = lambda path: path  # the URDF as derived before: pybullet_data's own meshes
+    arm_meshes.reduced_stl = lambda source: source  # the URDF as derived before: pybullet_data's own meshes
     urdf._derived.cache_clear()
     try:
         original_urdf = urdf.derived_urdf(world.robot_spec)
