@@ -92,10 +92,12 @@ async def _record(robot: Any, settings: AgentSettings, protocol: ProtocolName = 
 async def _overhead(fake: FakeLLM, model: str, calls: list[Call]) -> dict[str, list[float]]:
     """Per call, seconds minus the server's own time: the loop's complete(), LiteLLM alone, a bare
     httpx POST of the body LiteLLM sent (the floor: loopback, HTTP, JSON); and the CPU time the
-    loop's thread spent in complete() (`cpu`: what the machine's load does not inflate)."""
+    loop's thread spent in complete() (`cpu`: what the machine's load does not inflate) and in
+    LiteLLM alone with its defaults (`litellm_cpu`: it prices every response, which complete()
+    spares it for a model not in its cost map; these routes' fake models are not)."""
     settings = AgentSettings(model=model, api_base=fake.api_base(model), seed=7)
     kwargs: dict[str, Any] = {"api_base": settings.api_base, "api_key": PLACEHOLDER_KEY, "max_retries": 0}
-    out: dict[str, list[float]] = {"complete": [], "cpu": [], "litellm": [], "httpx": []}
+    out: dict[str, list[float]] = {"complete": [], "cpu": [], "litellm": [], "litellm_cpu": [], "httpx": []}
     async with httpx.AsyncClient() as client:
         for repeat in range(REPEATS + 1):
             for messages, tools in calls:
@@ -107,11 +109,13 @@ async def _overhead(fake: FakeLLM, model: str, calls: list[Call]) -> dict[str, l
                 t_cpu = time.thread_time() - cpu
                 sent = fake.last
                 fake.reset()
+                cpu = time.thread_time()
                 start = time.perf_counter()
                 await litellm.acompletion(
                     model=model, messages=messages, tools=tools, seed=7, drop_params=True, **kwargs
                 )
                 t_litellm = time.perf_counter() - start - fake.last.server_s
+                t_litellm_cpu = time.thread_time() - cpu
                 fake.reset()
                 start = time.perf_counter()
                 response = await client.post(fake.url + sent.path, json=sent.body, headers={"x-api-key": "k"})
@@ -121,6 +125,7 @@ async def _overhead(fake: FakeLLM, model: str, calls: list[Call]) -> dict[str, l
                     out["complete"].append(t_complete)
                     out["cpu"].append(t_cpu)
                     out["litellm"].append(t_litellm)
+                    out["litellm_cpu"].append(t_litellm_cpu)
                     out["httpx"].append(t_httpx)
     return out
 
