@@ -145,6 +145,27 @@ def _ours(model: str, calls: list[Call], response: Any) -> float:
     return statistics.median(times) * 1e6
 
 
+def _offline_response_us(message: dict[str, Any]) -> dict[str, float]:
+    """Microseconds to build one offline model's response (what `complete()` returns for
+    `scripted/...`, without LiteLLM), beside LiteLLM's `ModelResponse` of the same turn (what the
+    offline models answer through LiteLLM itself), the median over many."""
+    from robocog.agent.policies.offline import response
+    from robocog.agent.policies.providers import model_response
+
+    out = {}
+    for name, build in (
+        ("offline", lambda: response("scripted/planner", message, 8000, 0.0)),
+        ("litellm", lambda: model_response("scripted/planner", message, 8000)),
+    ):
+        times = []
+        for _ in range(2000):
+            start = time.perf_counter()
+            build()
+            times.append(time.perf_counter() - start)
+        out[f"models.response_build.{name}_us"] = round(statistics.median(times) * 1e6, 1)
+    return out
+
+
 def _tokens(calls: list[Call]) -> dict[str, float]:
     """Prompt tokens summed over the episode's calls, and the shares of what makes them up."""
     total = without_tools = system = looks = 0
@@ -199,6 +220,8 @@ async def _main() -> dict[str, Any]:
                 messages, tools = calls[-1]
                 response = await complete(settings, messages, tools)
                 out[f"{prefix}.robocog_own_us"] = round(_ours(model, calls, response), 1)
+                if route == "openai":
+                    out.update(_offline_response_us(assistant_message(response)))
                 if route == "openai":
                     first = [t for i, t in enumerate(times["complete"]) if i % len(calls) == 0]
                     last = [t for i, t in enumerate(times["complete"]) if i % len(calls) == len(calls) - 1]
