@@ -14,7 +14,7 @@ What `complete()` guarantees, whatever the provider:
   (llama.cpp, vLLM, LM Studio) work.
 - The cost of a turn comes from LiteLLM's local cost map when the model is in it, else it is None:
   never a guess (LiteLLM prices unknown Ollama models at 0.0; that becomes None here). For a model
-  not in the map LiteLLM is not asked to price the turn at all (`_skip_unpriced_cost`).
+  not in the map LiteLLM is not asked to price the turn at all (`litellm_tuning`).
 
 The offline models (`scripted/...`, `replay/...`) are answered in-process
 (`robocog.agent.policies.offline`), without LiteLLM: a scripted run never imports it.
@@ -28,11 +28,11 @@ import asyncio
 import contextlib
 import os
 import sys
-from collections.abc import Callable, Iterable
-from contextvars import ContextVar
-from functools import cache, wraps
+from collections.abc import Iterable
+from functools import cache
 from typing import TYPE_CHECKING, Any
 
+from robocog.agent.client.litellm_tuning import robocog_call, tune
 from robocog.agent.client.model_errors import classify, missing_keys
 from robocog.agent.policies.offline import OfflineModelError, is_offline, offline_turn
 from robocog.shared.errors import ModelServiceError
@@ -53,7 +53,9 @@ _configured = False
 
 
 def configured_litellm() -> Any:
-    """LiteLLM, configured once per process: no banners, the offline models registered."""
+    """LiteLLM, configured once per process: no banners, the offline models registered, and what it
+    does on every call that does nothing for `complete()`'s calls turned off for them
+    (`litellm_tuning`: no pricing of a model it cannot price, no logging for no callback)."""
     global _configured
     import litellm
 
@@ -62,37 +64,9 @@ def configured_litellm() -> Any:
         from robocog.agent.policies.providers import register
 
         register()
-        _skip_unpriced_cost(litellm)
+        tune(litellm)
         _configured = True
     return litellm
-
-
-#: True inside `complete()`'s call to a model not in LiteLLM's cost map (`_priced`).
-_unpriced_call: ContextVar[bool] = ContextVar("robocog_unpriced_call", default=False)
-
-
-def _skip_unpriced_cost(litellm: Any) -> None:
-    """Spare LiteLLM pricing a turn whose price `complete()` throws away.
-
-    LiteLLM prices every response before returning it: its cost map and, for a model not in it, a
-    search through its fallback generalizations and a zero-cost diagnostic (1-10 ms of CPU per call;
-    the bulk of LiteLLM's own time on `ollama_chat/`). For such a model `complete()` records the
-    cost as None (unknown, not free) whatever LiteLLM says, so during its calls LiteLLM's cost
-    calculator answers None at once; every other call, and every priced model, is priced as before.
-    LiteLLM has no public switch for this: its `response_cost_calculator` is wrapped, and
-    tests/unit/test_litellm_config.py fails if LiteLLM stops calling it."""
-    original: Callable[..., Any] = litellm.response_cost_calculator
-    if getattr(original, "robocog_skips_unpriced", False):
-        return
-
-    @wraps(original)
-    def response_cost_calculator(*args: Any, **kwargs: Any) -> Any:
-        if _unpriced_call.get():
-            return None
-        return original(*args, **kwargs)
-
-    response_cost_calculator.robocog_skips_unpriced = True  # type: ignore[attr-defined]
-    litellm.response_cost_calculator = response_cost_calculator
 
 
 def warm_up_litellm(models: Iterable[str] = ()) -> None:
@@ -277,17 +251,17 @@ async def complete(settings: AgentSettings, messages: list[dict[str, Any]], tool
     kwargs = _call_arguments(settings)
     priced = _priced(settings.model)
     for attempt in range(settings.retries + 1):
-        unpriced = _unpriced_call.set(not priced)
         try:
-            response = await litellm.acompletion(
-                model=settings.model,
-                messages=messages,
-                tools=tools,
-                timeout=settings.timeout_s,
-                drop_params=True,
-                max_retries=0,
-                **kwargs,
-            )
+            with robocog_call(litellm, priced=priced, kwargs=kwargs):
+                response = await litellm.acompletion(
+                    model=settings.model,
+                    messages=messages,
+                    tools=tools,
+                    timeout=settings.timeout_s,
+                    drop_params=True,
+                    max_retries=0,
+                    **kwargs,
+                )
         except Exception as exc:
             failure = classify(exc, settings)
             if not failure.retry or attempt == settings.retries:
@@ -295,8 +269,6 @@ async def complete(settings: AgentSettings, messages: list[dict[str, Any]], tool
                 raise ModelServiceError(failure.message + tries) from exc
             await asyncio.sleep(failure.wait(attempt, settings.backoff_s))
             continue
-        finally:
-            _unpriced_call.reset(unpriced)
         hidden = getattr(response, "_hidden_params", None)
         if isinstance(hidden, dict) and not priced:
             hidden["response_cost"] = None  # not in the cost map: unknown, not free

@@ -48,6 +48,9 @@ ROUTES = {
     "ollama": "ollama_chat/fake-model",
 }
 REPEATS = 10
+#: Idle after each call inside its CPU window: LiteLLM's success logging runs on its logging worker
+#: after the call returns, and counts with the call that left it, not with the next one.
+SETTLE_S = 0.005
 TOKENIZER = "gpt-4o"
 
 Call = tuple[list[dict[str, Any]], list[dict[str, Any]]]  # (messages, tools) of one model call
@@ -93,8 +96,10 @@ async def _overhead(fake: FakeLLM, model: str, calls: list[Call]) -> dict[str, l
     """Per call, seconds minus the server's own time: the loop's complete(), LiteLLM alone, a bare
     httpx POST of the body LiteLLM sent (the floor: loopback, HTTP, JSON); and the CPU time the
     loop's thread spent in complete() (`cpu`: what the machine's load does not inflate) and in
-    LiteLLM alone with its defaults (`litellm_cpu`: it prices every response, which complete()
-    spares it for a model not in its cost map; these routes' fake models are not)."""
+    LiteLLM alone with its defaults (`litellm_cpu`: it prices every response and builds a logging
+    payload after it, which complete() spares it for a model not in its cost map, as these routes'
+    fake models are not, and when no callback is registered), each with the work the call leaves
+    to LiteLLM's logging worker (`SETTLE_S`)."""
     settings = AgentSettings(model=model, api_base=fake.api_base(model), seed=7)
     kwargs: dict[str, Any] = {"api_base": settings.api_base, "api_key": PLACEHOLDER_KEY, "max_retries": 0}
     out: dict[str, list[float]] = {"complete": [], "cpu": [], "litellm": [], "litellm_cpu": [], "httpx": []}
@@ -106,6 +111,7 @@ async def _overhead(fake: FakeLLM, model: str, calls: list[Call]) -> dict[str, l
                 start = time.perf_counter()
                 await complete(settings, messages, tools)
                 t_complete = time.perf_counter() - start - fake.last.server_s
+                await asyncio.sleep(SETTLE_S)
                 t_cpu = time.thread_time() - cpu
                 sent = fake.last
                 fake.reset()
@@ -115,6 +121,7 @@ async def _overhead(fake: FakeLLM, model: str, calls: list[Call]) -> dict[str, l
                     model=model, messages=messages, tools=tools, seed=7, drop_params=True, **kwargs
                 )
                 t_litellm = time.perf_counter() - start - fake.last.server_s
+                await asyncio.sleep(SETTLE_S)
                 t_litellm_cpu = time.thread_time() - cpu
                 fake.reset()
                 start = time.perf_counter()
