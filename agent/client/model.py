@@ -13,7 +13,8 @@ What `complete()` guarantees, whatever the provider:
 - With `api_base` and no key at all, a placeholder key is sent, so keyless local servers
   (llama.cpp, vLLM, LM Studio) work.
 - The cost of a turn comes from LiteLLM's local cost map when the model is in it, else it is None:
-  never a guess (LiteLLM prices unknown Ollama models at 0.0; that becomes None here).
+  never a guess (LiteLLM prices unknown Ollama models at 0.0; that becomes None here). For a model
+  not in the map LiteLLM is not asked to price the turn at all (`litellm_tuning`).
 
 The offline models (`scripted/...`, `replay/...`) are answered in-process
 (`robocog.agent.policies.offline`), without LiteLLM: a scripted run never imports it.
@@ -31,6 +32,7 @@ from collections.abc import Iterable
 from functools import cache
 from typing import TYPE_CHECKING, Any
 
+from robocog.agent.client.litellm_tuning import robocog_call, tune
 from robocog.agent.client.model_errors import classify, missing_keys
 from robocog.agent.policies.offline import OfflineModelError, is_offline, offline_turn
 from robocog.shared.errors import ModelServiceError
@@ -51,7 +53,9 @@ _configured = False
 
 
 def configured_litellm() -> Any:
-    """LiteLLM, configured once per process: no banners, the offline models registered."""
+    """LiteLLM, configured once per process: no banners, the offline models registered, and what it
+    does on every call that does nothing for `complete()`'s calls turned off for them
+    (`litellm_tuning`: no pricing of a model it cannot price, no logging for no callback)."""
     global _configured
     import litellm
 
@@ -60,6 +64,7 @@ def configured_litellm() -> Any:
         from robocog.agent.policies.providers import register
 
         register()
+        tune(litellm)
         _configured = True
     return litellm
 
@@ -244,17 +249,19 @@ async def complete(settings: AgentSettings, messages: list[dict[str, Any]], tool
         return await _offline(settings, messages)
     litellm = configured_litellm()
     kwargs = _call_arguments(settings)
+    priced = _priced(settings.model)
     for attempt in range(settings.retries + 1):
         try:
-            response = await litellm.acompletion(
-                model=settings.model,
-                messages=messages,
-                tools=tools,
-                timeout=settings.timeout_s,
-                drop_params=True,
-                max_retries=0,
-                **kwargs,
-            )
+            with robocog_call(litellm, priced=priced, kwargs=kwargs):
+                response = await litellm.acompletion(
+                    model=settings.model,
+                    messages=messages,
+                    tools=tools,
+                    timeout=settings.timeout_s,
+                    drop_params=True,
+                    max_retries=0,
+                    **kwargs,
+                )
         except Exception as exc:
             failure = classify(exc, settings)
             if not failure.retry or attempt == settings.retries:
@@ -263,7 +270,7 @@ async def complete(settings: AgentSettings, messages: list[dict[str, Any]], tool
             await asyncio.sleep(failure.wait(attempt, settings.backoff_s))
             continue
         hidden = getattr(response, "_hidden_params", None)
-        if isinstance(hidden, dict) and not _priced(settings.model):
+        if isinstance(hidden, dict) and not priced:
             hidden["response_cost"] = None  # not in the cost map: unknown, not free
         return response
     raise AssertionError("unreachable")

@@ -48,6 +48,9 @@ ROUTES = {
     "ollama": "ollama_chat/fake-model",
 }
 REPEATS = 10
+#: Idle after each call inside its CPU window: LiteLLM's success logging runs on its logging worker
+#: after the call returns, and counts with the call that left it, not with the next one.
+SETTLE_S = 0.005
 TOKENIZER = "gpt-4o"
 
 Call = tuple[list[dict[str, Any]], list[dict[str, Any]]]  # (messages, tools) of one model call
@@ -92,10 +95,14 @@ async def _record(robot: Any, settings: AgentSettings, protocol: ProtocolName = 
 async def _overhead(fake: FakeLLM, model: str, calls: list[Call]) -> dict[str, list[float]]:
     """Per call, seconds minus the server's own time: the loop's complete(), LiteLLM alone, a bare
     httpx POST of the body LiteLLM sent (the floor: loopback, HTTP, JSON); and the CPU time the
-    loop's thread spent in complete() (`cpu`: what the machine's load does not inflate)."""
+    loop's thread spent in complete() (`cpu`: what the machine's load does not inflate) and in
+    LiteLLM alone with its defaults (`litellm_cpu`: it prices every response and builds a logging
+    payload after it, which complete() spares it for a model not in its cost map, as these routes'
+    fake models are not, and when no callback is registered), each with the work the call leaves
+    to LiteLLM's logging worker (`SETTLE_S`)."""
     settings = AgentSettings(model=model, api_base=fake.api_base(model), seed=7)
     kwargs: dict[str, Any] = {"api_base": settings.api_base, "api_key": PLACEHOLDER_KEY, "max_retries": 0}
-    out: dict[str, list[float]] = {"complete": [], "cpu": [], "litellm": [], "httpx": []}
+    out: dict[str, list[float]] = {"complete": [], "cpu": [], "litellm": [], "litellm_cpu": [], "httpx": []}
     async with httpx.AsyncClient() as client:
         for repeat in range(REPEATS + 1):
             for messages, tools in calls:
@@ -104,14 +111,18 @@ async def _overhead(fake: FakeLLM, model: str, calls: list[Call]) -> dict[str, l
                 start = time.perf_counter()
                 await complete(settings, messages, tools)
                 t_complete = time.perf_counter() - start - fake.last.server_s
+                await asyncio.sleep(SETTLE_S)
                 t_cpu = time.thread_time() - cpu
                 sent = fake.last
                 fake.reset()
+                cpu = time.thread_time()
                 start = time.perf_counter()
                 await litellm.acompletion(
                     model=model, messages=messages, tools=tools, seed=7, drop_params=True, **kwargs
                 )
                 t_litellm = time.perf_counter() - start - fake.last.server_s
+                await asyncio.sleep(SETTLE_S)
+                t_litellm_cpu = time.thread_time() - cpu
                 fake.reset()
                 start = time.perf_counter()
                 response = await client.post(fake.url + sent.path, json=sent.body, headers={"x-api-key": "k"})
@@ -121,6 +132,7 @@ async def _overhead(fake: FakeLLM, model: str, calls: list[Call]) -> dict[str, l
                     out["complete"].append(t_complete)
                     out["cpu"].append(t_cpu)
                     out["litellm"].append(t_litellm)
+                    out["litellm_cpu"].append(t_litellm_cpu)
                     out["httpx"].append(t_httpx)
     return out
 
@@ -138,6 +150,27 @@ def _ours(model: str, calls: list[Call], response: Any) -> float:
         usage(response)
         times.append(time.perf_counter() - start)
     return statistics.median(times) * 1e6
+
+
+def _offline_response_us(message: dict[str, Any]) -> dict[str, float]:
+    """Microseconds to build one offline model's response (what `complete()` returns for
+    `scripted/...`, without LiteLLM), beside LiteLLM's `ModelResponse` of the same turn (what the
+    offline models answer through LiteLLM itself), the median over many."""
+    from robocog.agent.policies.offline import response
+    from robocog.agent.policies.providers import model_response
+
+    out = {}
+    for name, build in (
+        ("offline", lambda: response("scripted/planner", message, 8000, 0.0)),
+        ("litellm", lambda: model_response("scripted/planner", message, 8000)),
+    ):
+        times = []
+        for _ in range(2000):
+            start = time.perf_counter()
+            build()
+            times.append(time.perf_counter() - start)
+        out[f"models.response_build.{name}_us"] = round(statistics.median(times) * 1e6, 1)
+    return out
 
 
 def _tokens(calls: list[Call]) -> dict[str, float]:
@@ -194,6 +227,8 @@ async def _main() -> dict[str, Any]:
                 messages, tools = calls[-1]
                 response = await complete(settings, messages, tools)
                 out[f"{prefix}.robocog_own_us"] = round(_ours(model, calls, response), 1)
+                if route == "openai":
+                    out.update(_offline_response_us(assistant_message(response)))
                 if route == "openai":
                     first = [t for i, t in enumerate(times["complete"]) if i % len(calls) == 0]
                     last = [t for i, t in enumerate(times["complete"]) if i % len(calls) == len(calls) - 1]
