@@ -3,9 +3,10 @@
 in-process on a `World`, both measured in the same run.
 
 The marginal CPU is that of a study of `1 + EXTRA` trials minus that of a study of 1 (so the start-up
-of the harness and its servers cancels), divided by `EXTRA`; each study runs `robocog eval` as a
-process, and its CPU is that of the process and every child it reaped (its servers), from
-`RUSAGE_CHILDREN`. Over stdio (a server process per worker) and on a fleet (HTTP).
+of the harness and its servers cancels), divided by `EXTRA`, averaged over `ROUNDS` measurements
+(alternating with the other install's); each study runs `robocog eval` as a process, and its CPU is
+that of the process and every child it reaped (its servers), from `RUSAGE_CHILDREN`. Over stdio (a
+server process per worker) and on a fleet (HTTP).
 
 `ROBOCOG_BENCH_AGAINST=/path/to/other/.venv/bin` measures another install's studies too (the previous
 release, say), alternating with this one's, against the same physics-only figure.
@@ -36,6 +37,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository, 
 from tests.helpers import T1_SEQUENCE, action_args, installed_env
 
 EXTRA = 10
+#: Measurements of each install's marginal CPU, alternating, averaged.
+ROUNDS = 2
 PHYSICS_RUNS = 7
 ENV = installed_env()
 
@@ -108,9 +111,14 @@ def measure(here: Path, against: Path | None, extra: int = EXTRA) -> dict[str, A
     out: dict[str, Any] = {"overhead.physics_cpu_s": round(physics, 3)}
     for isolation, name in (("process", "stdio"), ("fleet", "fleet")):
         installs = [("", here)] + ([("against.", against)] if against is not None else [])
-        for prefix, bin_dir in installs:
-            attempt = marginal_cpu_s(bin_dir, isolation, extra)
+        runs: dict[str, list[float]] = {prefix: [] for prefix, _ in installs}
+        for _ in range(ROUNDS):  # the installs alternately: this machine's speed drifts within minutes
+            for prefix, bin_dir in installs:
+                runs[prefix].append(marginal_cpu_s(bin_dir, isolation, extra))
+        for prefix, values in runs.items():
+            attempt = statistics.mean(values)
             out[f"overhead.{prefix}{name}.attempt_cpu_s"] = round(attempt, 3)
+            out[f"overhead.{prefix}{name}.attempt_cpu_s_runs"] = [round(v, 3) for v in values]
             out[f"overhead.{prefix}{name}.ratio"] = round(attempt / physics, 2)
     out["overhead.physics_cpu_s_after"] = round(physics_cpu_s(), 3)  # the machine's drift over the run
     out["overhead.target_ratio"] = 1.5
