@@ -37,8 +37,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository, 
 from tests.helpers import T1_SEQUENCE, action_args, installed_env
 
 EXTRA = 10
-#: Measurements of each install's marginal CPU, alternating, averaged.
-ROUNDS = 2
+#: Rounds, each measuring the physics and every install's marginal CPU (see `measure`).
+ROUNDS = 3
 PHYSICS_RUNS = 7
 ENV = installed_env()
 
@@ -107,19 +107,29 @@ def marginal_cpu_s(bin_dir: Path, isolation: str, extra: int) -> float:
 
 
 def measure(here: Path, against: Path | None, extra: int = EXTRA) -> dict[str, Any]:
-    physics = physics_cpu_s()
-    out: dict[str, Any] = {"overhead.physics_cpu_s": round(physics, 3)}
-    for isolation, name in (("process", "stdio"), ("fleet", "fleet")):
-        installs = [("", here)] + ([("against.", against)] if against is not None else [])
-        runs: dict[str, list[float]] = {prefix: [] for prefix, _ in installs}
-        for _ in range(ROUNDS):  # the installs alternately: this machine's speed drifts within minutes
+    """Each round measures the physics-only CPU, then each install's marginal attempt on stdio and on
+    a fleet, alternately: a ratio is an attempt over the physics of its own round (this machine's
+    speed drifts by a third within minutes), and the figures are the rounds' means."""
+    installs = [("", here)] + ([("against.", against)] if against is not None else [])
+    physics: list[float] = []
+    attempts: dict[str, list[float]] = {}
+    ratios: dict[str, list[float]] = {}
+    for _ in range(ROUNDS):
+        physics.append(physics_cpu_s())
+        for isolation, name in (("process", "stdio"), ("fleet", "fleet")):
             for prefix, bin_dir in installs:
-                runs[prefix].append(marginal_cpu_s(bin_dir, isolation, extra))
-        for prefix, values in runs.items():
-            attempt = statistics.mean(values)
-            out[f"overhead.{prefix}{name}.attempt_cpu_s"] = round(attempt, 3)
-            out[f"overhead.{prefix}{name}.attempt_cpu_s_runs"] = [round(v, 3) for v in values]
-            out[f"overhead.{prefix}{name}.ratio"] = round(attempt / physics, 2)
+                attempt = marginal_cpu_s(bin_dir, isolation, extra)
+                attempts.setdefault(f"{prefix}{name}", []).append(attempt)
+                ratios.setdefault(f"{prefix}{name}", []).append(attempt / physics[-1])
+    out: dict[str, Any] = {
+        "overhead.physics_cpu_s": round(statistics.mean(physics), 3),
+        "overhead.physics_cpu_s_runs": [round(v, 3) for v in physics],
+    }
+    for key, values in attempts.items():
+        out[f"overhead.{key}.attempt_cpu_s"] = round(statistics.mean(values), 3)
+        out[f"overhead.{key}.attempt_cpu_s_runs"] = [round(v, 3) for v in values]
+        out[f"overhead.{key}.ratio"] = round(statistics.mean(ratios[key]), 2)
+        out[f"overhead.{key}.ratio_runs"] = [round(v, 2) for v in ratios[key]]
     out["overhead.physics_cpu_s_after"] = round(physics_cpu_s(), 3)  # the machine's drift over the run
     out["overhead.target_ratio"] = 1.5
     return out
