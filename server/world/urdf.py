@@ -4,6 +4,7 @@
   paper), and mesh paths are made absolute.
 - The STL collision meshes are reduced to their extreme points (`arm_meshes`): the arm collides with
   nothing, and the reduced meshes give it the same bounding boxes.
+- The OBJ visual meshes are simplified to a tenth of their triangles (`arm_visuals`), for the camera.
 
 The copy is derived once per process and arm (every reset loads the arm) and written to the
 temporary directory under a name that carries its digest, again if it has gone from there.
@@ -17,7 +18,7 @@ import tempfile
 from functools import cache
 from pathlib import Path
 
-from robocog.server.world import arm_meshes
+from robocog.server.world import arm_meshes, arm_visuals
 from robocog.shared.robot_spec import RobotSpec, resolve_urdf, revolute_joint_pattern
 
 
@@ -40,6 +41,7 @@ def _derived(urdf: str, continuous_joints: tuple[str, ...]) -> tuple[str, Path]:
     text = source.read_text(encoding="utf-8")
     text = re.sub(r'filename="(?!/)([^"]+)"', lambda m: f'filename="{(source.parent / m.group(1)).as_posix()}"', text)
     text = re.sub(r"<collision>.*?</collision>", _reduced_collision, text, flags=re.S)
+    text = re.sub(r"<visual>.*?</visual>", _simplified_visual, text, flags=re.S)
     for joint in continuous_joints:
         text, count = re.subn(revolute_joint_pattern(joint), r'\1"continuous"', text)
         if count != 1:
@@ -49,6 +51,14 @@ def _derived(urdf: str, continuous_joints: tuple[str, ...]) -> tuple[str, Path]:
     digest = hashlib.sha256(text.encode()).hexdigest()[:16]
     target = Path(tempfile.gettempdir()) / "robocog-urdf" / f"{source.stem}-{digest}.urdf"
     return text, arm_meshes.write_once(target, text.encode())
+
+
+def _simplified_visual(block: re.Match[str]) -> str:
+    return re.sub(
+        r'filename="([^"]+)"',
+        lambda m: f'filename="{arm_visuals.simplified_obj(Path(m.group(1))).as_posix()}"',
+        block.group(0),
+    )
 
 
 def _reduced_collision(block: re.Match[str]) -> str:

@@ -3,7 +3,8 @@
 - A fleet's memory: one `robocog-server --robots 64` process, its RSS as 1, 2, 4, ... 64 sessions
   each take a robot; per additional robot (goal <= 30 MB) and for 64 robots (goal <= 2.5 GB). And
   where a robot's memory goes, each part measured in a fresh process (`robot_memory.py`): PyBullet's
-  empty client, the floor and the arm as they were built and as they are, a whole world, a robot.
+  empty client, the floor and the arm as they were built and as they are, a whole world, a robot;
+  and the arm drawn with both visual meshes (docs/arm-visuals.png).
 - `ROBOCOG_BENCH_AGAINST=/path/to/other/.venv/bin` measures another install's fleet memory and its
   64 workers on fleets too (the previous release), right after this one's, as `scale.against.*`.
 - Throughput: the planner on T1 with `latency_s=1.0` per model turn, `--workers N`, each worker
@@ -131,9 +132,11 @@ def robot_breakdown() -> dict[str, float]:
             check=True,
         )
         parts.update(json.loads(done.stdout.strip().splitlines()[-1]))
+    arms = Path(__file__).resolve().parents[2] / "docs" / "arm-visuals.png"
+    subprocess.run([sys.executable, str(Path(__file__).with_name("robot_memory.py")), "--figure", str(arms)], check=True)
     figures = {f"scale.robot_mb.{part}": mb for part, mb in parts.items()}
-    # What the world adds to PyBullet's empty client (the arm's visual meshes, which the camera draws,
-    # are nearly all of it); and what a robot adds to its world (its session, the first frame).
+    # What the world adds to PyBullet's empty client (the arm, its visual meshes simplified, is most
+    # of it); and what a robot adds to its world (its session, the first frame).
     figures["scale.robot_mb.scene"] = round(parts["world"] - parts["client"], 2)
     figures["scale.robot_mb.session"] = round(parts["robot"] - parts["world"], 2)
     figures["scale.robot_mb.saved"] = round(parts["world_original"] - parts["world"], 2)

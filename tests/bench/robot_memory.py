@@ -6,11 +6,15 @@ paid before the clock) and prints the growth of its RSS per copy, in MB:
 - `client`: an empty PyBullet DIRECT client (`resetSimulation` done, as `World` has it);
 - `floor_plane` / `floor`: such a client with the floor drawn as a plane (as it was) / as the world
   draws it now (`builder.make_floor`), the client itself not counted;
-- `arm_original` / `arm`: the same with the arm loaded from pybullet_data's collision meshes (as it
-  was) / from the reduced ones (`arm_meshes`);
+- `arm_original` / `arm`: the same with the arm loaded from pybullet_data's collision and visual
+  meshes (as it was) / from the reduced collision meshes (`arm_meshes`) and the simplified visual
+  ones (`arm_visuals`);
 - `world_original` / `world`: a whole `World` (the household, built and settled) as it was built
   before (a plane floor, the original arm meshes) / as it is built now;
 - `robot`: a fleet's robot: a `RobotSession` on its own world, after a `look_around` and a camera frame.
+
+`python robot_memory.py --figure PATH` draws the arm from three sides with pybullet_data's visual
+meshes (top) and the simplified ones (bottom), as TinyRenderer draws them (docs/arm-visuals.png).
 """
 
 from __future__ import annotations
@@ -50,21 +54,21 @@ def _builder(part: str) -> tuple[Callable[[Any], Any], bool]:
     from robocog.server.config import SessionConfig
     from robocog.server.session import RobotSession
     from robocog.server.tools import look_around
-    from robocog.server.world import arm_meshes, builder, camera, urdf
+    from robocog.server.world import arm_meshes, arm_visuals, builder, camera, urdf
     from robocog.server.world.world import DEFAULT_SCENE, World
     from robocog.shared.robot_spec import load_robot
     from robocog.shared.scene_files import load_scene
 
     def arm_urdf(reduced: bool) -> str:
         spec = load_robot(load_scene(DEFAULT_SCENE).robot_file())
-        lean = arm_meshes.reduced_stl
+        lean, simple = arm_meshes.reduced_stl, arm_visuals.simplified_obj
         if not reduced:
-            arm_meshes.reduced_stl = _original_mesh  # pybullet_data's own meshes
+            arm_meshes.reduced_stl = arm_visuals.simplified_obj = _original_mesh  # pybullet_data's own meshes
         urdf._derived.cache_clear()
         try:
             return str(urdf.derived_urdf(spec))
         finally:
-            arm_meshes.reduced_stl = lean
+            arm_meshes.reduced_stl, arm_visuals.simplified_obj = lean, simple
             urdf._derived.cache_clear()
 
     def plane(c: BulletClient) -> int:
@@ -74,7 +78,7 @@ def _builder(part: str) -> tuple[Callable[[Any], Any], bool]:
 
     if part == "world_original":  # every world of this process built as before
         builder.make_floor = plane
-        arm_meshes.reduced_stl = _original_mesh
+        arm_meshes.reduced_stl = arm_visuals.simplified_obj = _original_mesh
         urdf._derived.cache_clear()
 
     def fleet_robot(_: object) -> RobotSession:
@@ -105,5 +109,40 @@ def measure(part: str) -> float:
     return round((rss_mb() - before) / N, 2)
 
 
+def draw_arms(path: Path) -> None:
+    """The arm from three sides, with pybullet_data's visual meshes (top row) and the simplified ones."""
+    import numpy as np
+    from PIL import Image
+
+    from robocog.server.world import arm_visuals, urdf
+    from robocog.server.world.world import DEFAULT_SCENE
+    from robocog.shared.robot_spec import load_robot
+    from robocog.shared.scene_files import load_scene
+
+    spec = load_robot(load_scene(DEFAULT_SCENE).robot_file())
+    simple, rows = arm_visuals.simplified_obj, []
+    for original in (True, False):
+        arm_visuals.simplified_obj = _original_mesh if original else simple
+        urdf._derived.cache_clear()
+        client = _client()
+        arm = client.loadURDF(str(urdf.derived_urdf(spec)), useFixedBase=True)
+        for joint, angle in enumerate((0.4, 0.9, -0.3, -1.2, 0.5, 1.0, 0.0)):
+            client.resetJointState(arm, joint, angle)
+        row = []
+        for yaw in (30, 150, 270):
+            view = client.computeViewMatrixFromYawPitchRoll([0, 0, 0.6], 1.5, yaw, -20, 0, 2)
+            projection = client.computeProjectionMatrixFOV(50, 4 / 3, 0.05, 10)
+            _, _, rgb, _, _ = client.getCameraImage(320, 240, view, projection, renderer=pybullet.ER_TINY_RENDERER)
+            row.append(np.asarray(rgb, dtype=np.uint8).reshape(240, 320, 4)[..., :3])
+        rows.append(np.hstack(row))
+        client.disconnect()
+    arm_visuals.simplified_obj = simple
+    urdf._derived.cache_clear()
+    Image.fromarray(np.vstack(rows)).save(path, optimize=True)
+
+
 if __name__ == "__main__":
-    print(json.dumps({sys.argv[1]: measure(sys.argv[1])}))
+    if sys.argv[1] == "--figure":
+        draw_arms(Path(sys.argv[2]))
+    else:
+        print(json.dumps({sys.argv[1]: measure(sys.argv[1])}))
