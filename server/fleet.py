@@ -11,7 +11,7 @@ and is made as good as new (`RobotSession.recycle`) before the next driver gets 
 
 The robots share what is heavy and shareable: the embedding model (one per process already), and
 one Chroma client and collection handle per memory namespace in use (`Memories`, bounded). Each
-robot is its own PyBullet client (about 32 MB a robot, most of it PyBullet's own: docs/figures.md,
+robot is its own PyBullet client (about 29 MB a robot, nearly all of it PyBullet's own: docs/figures.md,
 Scale; a shared client would make the robots one simulation) and its calls are serialised by its
 own lock; different robots' calls run on worker threads side by side (PyBullet holds the GIL while
 it steps, so one process uses about one core: a machine's cores are used by a few fleet processes).

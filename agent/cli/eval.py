@@ -23,7 +23,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         "--isolation",
         choices=["process", "fleet"],
         help="'process': a server process per worker (over stdio); 'fleet': a few fleet servers (HTTP, a robot "
-        "per worker, ~32 MB each instead of ~370 MB) (default: config, else process)",
+        "per worker, ~29 MB each instead of ~370 MB) (default: config, else process)",
     )
     ev.add_argument(
         "--fleet-processes",

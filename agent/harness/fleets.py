@@ -1,7 +1,7 @@
 """The fleet servers a study spawns (`robocog eval --isolation fleet`).
 
 A fleet server (`robocog-server --transport http --robots N`) hosts a robot per MCP session in one
-process, sharing the embedding model and the Chroma client: about 32 MB per robot instead of about
+process, sharing the embedding model and the Chroma client: about 29 MB per robot instead of about
 370 MB per server process. PyBullet holds the GIL while it steps, so one process uses about one
 core; a study spreads its workers over a few fleets (one per core by default), worker i on fleet
 i mod P. Each fleet keeps its memory in its own data directory, where every unit has a namespace of
