@@ -13,6 +13,7 @@ from it, and writing it again replaces it: one episode, one record, however ofte
 from __future__ import annotations
 
 import contextlib
+import functools
 import os
 import threading
 import uuid
@@ -98,6 +99,18 @@ def _check_status(name: str, value: object, *, optional: bool = False) -> None:
         raise ValueError(f"{name} must be 'success' or 'failure', got {value!r}")
 
 
+@functools.cache
+def _base_settings() -> Settings:
+    """Chroma's settings, telemetry off: made once (a `Settings()` reads the environment, 4 ms)."""
+    os.environ["ANONYMIZED_TELEMETRY"] = "False"
+    return Settings(anonymized_telemetry=False)
+
+
+def _settings() -> Settings:
+    """A copy of the settings for one client (`chromadb.PersistentClient` writes its path into them)."""
+    return _base_settings().model_copy()
+
+
 class EpisodicMemory:
     """Past episodes of one namespace, searchable by how similar their task is to a new one."""
 
@@ -124,8 +137,7 @@ class EpisodicMemory:
         self._ef: EmbeddingFunction[Documents] = (
             MiniLMEmbeddingFunction() if embedding_function is None else embedding_function
         )
-        os.environ["ANONYMIZED_TELEMETRY"] = "False"
-        settings = Settings(anonymized_telemetry=False)
+        settings = _settings()
         self._client: ClientAPI
         self._url = url
         if url is not None:

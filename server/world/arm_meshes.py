@@ -30,23 +30,28 @@ _TRIANGLE = np.dtype([("normal", "<f4", 3), ("vertices", "<f4", (3, 3)), ("attri
 
 
 def reduced_stl(source: Path) -> Path:
-    """A binary STL whose vertices are `source`'s extreme points (see the module), written once to
-    the temporary directory, named by its content; `source` itself when it is not a binary STL."""
-    reduced = _reduced(source)
-    if reduced is None:
+    """A binary STL whose vertices are `source`'s extreme points (see the module), in the temporary
+    directory, named by the source's content: computed and written once per machine (again if it has
+    gone); `source` itself when it is not a binary STL."""
+    target = _target(source)
+    if target is None:
         return source
-    name, data = reduced
-    return write_once(Path(tempfile.gettempdir()) / "robocog-urdf" / name, data)
+    if not target.exists():
+        data = _binary_stl(source)
+        assert data is not None  # `_target` read it as one
+        write_once(target, stl_bytes(extreme_points(_stl_points(data))))
+    return target
 
 
 @functools.cache
-def _reduced(source: Path) -> tuple[str, bytes] | None:
-    """The reduced mesh's file name and bytes (computed once per process: every reset builds the arm)."""
-    points = _stl_points(source)
-    if points is None:
+def _target(source: Path) -> Path | None:
+    """Where `source` reduced is written, named by its content and the method (None: not a binary STL).
+    Once per process: every reset builds the arm."""
+    data = _binary_stl(source)
+    if data is None:
         return None
-    data = stl_bytes(extreme_points(points))
-    return f"{source.stem}-{hashlib.sha256(data).hexdigest()[:16]}.stl", data
+    digest = hashlib.sha256(f"robocog extreme points 1, {DIRECTIONS}".encode() + data).hexdigest()[:16]
+    return Path(tempfile.gettempdir()) / "robocog-urdf" / f"{source.stem}-{digest}.stl"
 
 
 def extreme_points(points: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]:
@@ -79,8 +84,8 @@ def write_once(target: Path, data: bytes) -> Path:
     return target
 
 
-def _stl_points(source: Path) -> npt.NDArray[np.float32] | None:
-    """Every vertex of a binary STL (once per triangle at it), or None when `source` is not one."""
+def _binary_stl(source: Path) -> bytes | None:
+    """The bytes of `source` if it is a binary STL of at least one triangle, else None."""
     if source.suffix.lower() != ".stl" or not source.is_file():
         return None
     data = source.read_bytes()
@@ -89,6 +94,12 @@ def _stl_points(source: Path) -> npt.NDArray[np.float32] | None:
     (count,) = struct.unpack_from("<I", data, 80)
     if count == 0 or len(data) != 84 + 50 * count:  # an ASCII STL, or not an STL
         return None
+    return data
+
+
+def _stl_points(data: bytes) -> npt.NDArray[np.float32]:
+    """Every vertex of a binary STL's bytes (once per triangle at it)."""
+    (count,) = struct.unpack_from("<I", data, 80)
     triangles = np.frombuffer(data, dtype=_TRIANGLE, count=count, offset=84)
     return np.ascontiguousarray(triangles["vertices"].reshape(-1, 3))
 

@@ -43,13 +43,17 @@ def simplified_obj(source: Path) -> Path:
 @functools.cache
 def _target(source: Path) -> Path | None:
     """Where `source` simplified is written, named by its content and the method (None: kept as is)."""
-    data = source.read_bytes()
-    text = data.decode("utf-8", errors="replace")
-    if len(re.findall(r"^f\s", text, re.M)) < SMALL or len(re.findall(r"^usemtl\s", text, re.M)) > 1:
+    data = b"\n" + source.read_bytes()
+    if data.count(b"\nf ") < SMALL or data.count(b"\nusemtl ") > 1:
         return None
-    method = f"robocog arm visuals 1, {REDUCTION}, fast-simplification {version('fast-simplification')}"
-    digest = hashlib.sha256(method.encode() + data).hexdigest()[:16]
+    method = f"robocog arm visuals 1, {REDUCTION}, fast-simplification {_simplifier_version()}"
+    digest = hashlib.sha256(method.encode() + data[1:]).hexdigest()[:16]
     return Path(tempfile.gettempdir()) / "robocog-urdf" / f"{source.stem}-{digest}.obj"
+
+
+@functools.cache
+def _simplifier_version() -> str:
+    return version("fast-simplification")
 
 
 def _write(source: Path, target: Path) -> None:

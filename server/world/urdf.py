@@ -23,15 +23,23 @@ from robocog.shared.robot_spec import RobotSpec, resolve_urdf, revolute_joint_pa
 
 
 def derived_urdf(spec: RobotSpec) -> Path:
-    """The arm's URDF with `continuous_joints` unlimited, absolute mesh paths and reduced collision
-    meshes (derived once per process and arm; written again, with its meshes, if the file has gone)."""
+    """The arm's URDF with `continuous_joints` unlimited, absolute mesh paths, reduced collision
+    meshes and simplified visual ones (derived once per process and arm; written again, with its
+    meshes, if any of those files has gone: a temporary directory may be cleaned while a server runs)."""
     key = (spec.arm.urdf, tuple(spec.arm.continuous_joints))
     text, target = _derived(*key)
-    if not target.exists():
-        _derived.cache_clear()  # its reduced meshes may have gone too: derive (and write) them again
+    if not all(path.exists() for path in _written(text, target)):
+        _derived.cache_clear()  # derive again: the meshes that have gone are written again on the way
         text, target = _derived(*key)
         arm_meshes.write_once(target, text.encode())
     return target
+
+
+@cache
+def _written(text: str, target: Path) -> tuple[Path, ...]:
+    """The derived URDF and the derived meshes it names."""
+    meshes = (Path(name) for name in re.findall(r'filename="([^"]+)"', text))
+    return (target, *(mesh for mesh in meshes if mesh.parent == target.parent))
 
 
 @cache

@@ -133,7 +133,9 @@ def robot_breakdown() -> dict[str, float]:
         )
         parts.update(json.loads(done.stdout.strip().splitlines()[-1]))
     arms = Path(__file__).resolve().parents[2] / "docs" / "arm-visuals.png"
-    subprocess.run([sys.executable, str(Path(__file__).with_name("robot_memory.py")), "--figure", str(arms)], check=True)
+    subprocess.run(
+        [sys.executable, str(Path(__file__).with_name("robot_memory.py")), "--figure", str(arms)], check=True
+    )
     figures = {f"scale.robot_mb.{part}": mb for part, mb in parts.items()}
     # What the world adds to PyBullet's empty client (the arm, its visual meshes simplified, is most
     # of it); and what a robot adds to its world (its session, the first frame).

@@ -81,6 +81,20 @@ def test_the_derived_urdf_is_derived_once_and_written_again_when_it_has_gone(wor
     assert again == first and again.is_file()
 
 
+def test_derived_meshes_that_have_gone_are_written_again_at_the_next_reset(world: World) -> None:
+    """A temporary directory may be cleaned, file by file, under a running server."""
+    arm = world.sim.robot.arm
+    collision = Path(world.client.getCollisionShapeData(arm, 2)[0][4].decode())
+    visual = Path(world.client.getVisualShapeData(arm)[3][4].decode())
+    before = collision.read_bytes(), visual.read_bytes()
+    collision.unlink()
+    visual.unlink()
+    world.reset()  # loads the arm again
+    assert (collision.read_bytes(), visual.read_bytes()) == before
+    arm = world.sim.robot.arm
+    assert Path(world.client.getCollisionShapeData(arm, 2)[0][4].decode()) == collision
+
+
 def test_extreme_points_keep_the_bounding_box_to_the_bit() -> None:
     points = np.random.default_rng(0).normal(size=(5000, 3)).astype(np.float32)
     kept = arm_meshes.extreme_points(points)
