@@ -1,12 +1,19 @@
 """What an attempt costs beyond its physics: the marginal CPU of one scripted T1 attempt in a study
 (harness and server processes together) divided by the CPU of the same twelve actions run
-in-process on a `World`, both measured in the same run.
+in-process on a `World`, both measured in the same run, at the same moments.
 
-The marginal CPU is that of a study of `1 + EXTRA` trials minus that of a study of 1 (so the start-up
-of the harness and its servers cancels), divided by `EXTRA`, averaged over `ROUNDS` measurements
-(alternating with the other install's); each study runs `robocog eval` as a process, and its CPU is
-that of the process and every child it reaped (its servers), from `RUSAGE_CHILDREN`. Over stdio (a
-server process per worker) and on a fleet (HTTP).
+The marginal CPU is read inside one study of `1 + EXTRA` trials (`robocog eval` as a process, a
+trial a unit): the CPU of the harness and its servers (every process of its tree, from /proc) when
+the first attempt's row is written and when the last one's is, the difference over `EXTRA`. The
+study's start-up (imports, servers, the embedding model) and its end are outside that window, so
+their noise (seconds of CPU) does not divide into the figure; every unit's own work (its reset, its
+memory namespace made and dropped, its verdict) is inside it. Averaged over `ROUNDS` measurements,
+alternating with the other install's; over stdio (a server process per worker) and on a fleet (HTTP).
+
+The physics-only CPU is measured by a process of its own running the twelve actions again and again
+while the study runs (the median of the runs that ended within the study's window): this machine's
+speed drifts by a third within minutes and switches between two speeds for seconds at a time, so a
+physics figure measured before or after a study can be a third off the study's own.
 
 `ROBOCOG_BENCH_AGAINST=/path/to/other/.venv/bin` measures another install's studies too (the previous
 release, say), alternating with this one's, against the same physics-only figure.
@@ -17,14 +24,16 @@ release, say), alternating with this one's, against the same physics-only figure
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
-import resource
+import signal
 import statistics
 import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -37,29 +46,30 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository, 
 from tests.helpers import T1_SEQUENCE, action_args, installed_env
 
 EXTRA = 10
-#: Rounds, each measuring the physics and every install's marginal CPU (see `measure`).
+#: How often the study's rows are looked at (the CPU is read when a row that marks the window appears).
+POLL_S = 0.002
+TICKS = os.sysconf("SC_CLK_TCK")
+#: Rounds, each measuring every install's marginal CPU with the physics at the time (see `measure`).
 ROUNDS = 3
-PHYSICS_RUNS = 7
 ENV = installed_env()
 
 
-def physics_cpu_s() -> float:
-    """The median CPU of T1's twelve actions on an in-process world, from the paper's start."""
+def physics_runs(stop: Callable[[], bool]) -> Iterator[tuple[float, float]]:
+    """T1's twelve actions on an in-process world, from the paper's start, again and again until
+    `stop()`: for each run, when it ended (time.time) and its CPU (its thread's)."""
     tools = {t.name: t for t in ROBOT_TOOLS}
     world = World()
     robot = RobotSession(SessionConfig(), world=world)
-    runs: list[float] = []
     try:
-        for _ in range(PHYSICS_RUNS):
+        while not stop():
             world.reset()
-            start = time.process_time()
+            start = time.thread_time()
             for action in T1_SEQUENCE:
                 result = robot.call(tools[action[0]], **action_args(action))
                 assert result.status == "success", result.message
-            runs.append(time.process_time() - start)
+            yield time.time(), time.thread_time() - start
     finally:
         world.close()
-    return statistics.median(runs)
 
 
 def _config(path: Path, trials: int, isolation: str) -> Path:
@@ -79,48 +89,85 @@ def _config(path: Path, trials: int, isolation: str) -> Path:
     return path
 
 
-def study_cpu_s(bin_dir: Path, trials: int, isolation: str) -> float:
-    """CPU seconds of `robocog eval` on a study of `trials` T1 attempts, its servers included."""
+def _tree_cpu_s(root: int) -> float:
+    """CPU seconds of process `root` and its descendants (each one's own and its reaped children's)."""
+    stats: dict[int, list[str]] = {}
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            with contextlib.suppress(OSError):
+                text = Path(f"/proc/{entry}/stat").read_text()
+                stats[int(entry)] = text[text.rindex(")") + 2 :].split()
+    children: dict[int, list[int]] = {}
+    for pid, fields in stats.items():
+        children.setdefault(int(fields[1]), []).append(pid)
+    total, todo = 0, [root]
+    while todo:
+        pid = todo.pop()
+        if pid in stats:
+            total += sum(int(v) for v in stats[pid][11:15])  # utime, stime, cutime, cstime
+        todo += children.get(pid, [])
+    return total / TICKS
+
+
+def attempt_cpu_s(bin_dir: Path, isolation: str, extra: int) -> tuple[float, float]:
+    """The CPU of one T1 attempt inside a study of `1 + extra` (`robocog eval` as a process), and the
+    physics-only CPU of its twelve actions at the same time: the CPU of the study and its servers from
+    the moment the first attempt's row is written to the moment the last one's is, over `extra` (the
+    study's start-up and end are outside that window); and the median of the physics-only runs that a
+    process of its own ended within that window (`--physics`)."""
     with tempfile.TemporaryDirectory() as tmp:
-        config = _config(Path(tmp) / "study.yaml", trials, isolation)
-        before = resource.getrusage(resource.RUSAGE_CHILDREN)
-        done = subprocess.run(
-            [str(bin_dir / "robocog"), "eval", str(config), "--out", f"{tmp}/rows.jsonl", "--quiet"],
-            capture_output=True,
+        config, rows = _config(Path(tmp) / "study.yaml", 1 + extra, isolation), Path(tmp) / "rows.jsonl"
+        marks: dict[int, tuple[float, float]] = {}  # rows written -> (time, CPU of the study)
+        physics = subprocess.Popen(
+            [sys.executable, __file__, "--physics"], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True
+        )
+        assert physics.stdout is not None and physics.stdout.readline().strip() == "ready"
+        with subprocess.Popen(
+            [str(bin_dir / "robocog"), "eval", str(config), "--out", str(rows), "--quiet"],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
             text=True,
             env={**ENV, "ROBOCOG_DATA_DIR": f"{tmp}/memory"},
             cwd=tmp,
-            timeout=900,
-        )
-        after = resource.getrusage(resource.RUSAGE_CHILDREN)
-        if done.returncode != 0:
-            raise RuntimeError(f"{bin_dir}: robocog eval ({isolation}, {trials}) failed: {done.stderr[-800:]}")
-        rows = [json.loads(line) for line in Path(f"{tmp}/rows.jsonl").read_text(encoding="utf-8").splitlines()]
-        if len(rows) != trials or not all(r["true_success"] for r in rows):
-            raise RuntimeError(f"{bin_dir}: the study did not succeed on every trial: {rows}")
-    return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
-
-
-def marginal_cpu_s(bin_dir: Path, isolation: str, extra: int) -> float:
-    study_cpu_s(bin_dir, 1, isolation)  # a warm-up: bytecode written, page cache filled, for both installs
-    return (study_cpu_s(bin_dir, 1 + extra, isolation) - study_cpu_s(bin_dir, 1, isolation)) / extra
+        ) as study:
+            size = -1
+            while study.poll() is None:
+                if rows.exists() and rows.stat().st_size != size:  # a row written: count them
+                    size = rows.stat().st_size
+                    written = rows.read_bytes().count(b"\n")
+                    if written in (1, 1 + extra) and written not in marks:
+                        marks[written] = (time.time(), _tree_cpu_s(study.pid))
+                time.sleep(POLL_S)
+            error = study.stderr.read() if study.stderr else ""
+        physics.terminate()
+        ended = [json.loads(line) for line in physics.communicate()[0].splitlines()]
+        if study.returncode != 0 or len(marks) != 2:
+            raise RuntimeError(f"{bin_dir}: robocog eval ({isolation}, {1 + extra}) failed: {error[-800:]}")
+        done = [json.loads(line) for line in rows.read_text(encoding="utf-8").splitlines()]
+        if len(done) != 1 + extra or not all(r["true_success"] for r in done):
+            raise RuntimeError(f"{bin_dir}: the study did not succeed on every trial: {done}")
+    (start, first), (end, last) = marks[1], marks[1 + extra]
+    within = [cpu for at, cpu in ended if start <= at <= end]
+    if len(within) < 3:
+        raise RuntimeError(f"only {len(within)} physics-only runs ended within the study's window")
+    return (last - first) / extra, statistics.median(within)
 
 
 def measure(here: Path, against: Path | None, extra: int = EXTRA) -> dict[str, Any]:
-    """Each round measures the physics-only CPU, then each install's marginal attempt on stdio and on
-    a fleet, alternately: a ratio is an attempt over the physics of its own round (this machine's
-    speed drifts by a third within minutes), and the figures are the rounds' means."""
+    """Each round measures each install's attempt on stdio and on a fleet, alternately, each against
+    the physics-only CPU measured at the same moments (this machine's speed drifts by a third within
+    minutes and switches between two speeds for seconds at a time); the figures are the rounds' means."""
     installs = [("", here)] + ([("against.", against)] if against is not None else [])
     physics: list[float] = []
     attempts: dict[str, list[float]] = {}
     ratios: dict[str, list[float]] = {}
     for _ in range(ROUNDS):
-        physics.append(physics_cpu_s())
         for isolation, name in (("process", "stdio"), ("fleet", "fleet")):
             for prefix, bin_dir in installs:
-                attempt = marginal_cpu_s(bin_dir, isolation, extra)
+                attempt, at_the_time = attempt_cpu_s(bin_dir, isolation, extra)
+                physics.append(at_the_time)
                 attempts.setdefault(f"{prefix}{name}", []).append(attempt)
-                ratios.setdefault(f"{prefix}{name}", []).append(attempt / physics[-1])
+                ratios.setdefault(f"{prefix}{name}", []).append(attempt / at_the_time)
     out: dict[str, Any] = {
         "overhead.physics_cpu_s": round(statistics.mean(physics), 3),
         "overhead.physics_cpu_s_runs": [round(v, 3) for v in physics],
@@ -130,19 +177,79 @@ def measure(here: Path, against: Path | None, extra: int = EXTRA) -> dict[str, A
         out[f"overhead.{key}.attempt_cpu_s_runs"] = [round(v, 3) for v in values]
         out[f"overhead.{key}.ratio"] = round(statistics.mean(ratios[key]), 2)
         out[f"overhead.{key}.ratio_runs"] = [round(v, 2) for v in ratios[key]]
-    out["overhead.physics_cpu_s_after"] = round(physics_cpu_s(), 3)  # the machine's drift over the run
     out["overhead.target_ratio"] = 1.5
+    return out
+
+
+#: What a unit of the study asks of its robot besides the model's twelve actions, in its order (the
+#: harness's calls and the planner's: `agent/harness/runner.py`, the planner's trace), by part.
+_UNIT: tuple[tuple[str, str, dict[str, Any]], ...] = (
+    ("reset", "reset_world", {"seed": 0, "memory_namespace": "overhead-unit", "search_k": 3}),
+    ("memory", "clear_memory", {}),
+    ("other", "begin_task", {"task_id": "T1"}),
+    ("memory", "search_memory", {"query": "Put away all the items into the shelf."}),
+    ("other", "look_around", {}),
+    ("other", "add_to_scratchpad", {"text": "Plan: the cube, the mug and the box to the shelf."}),
+    ("physics", "", {}),  # the twelve actions
+    ("other", "look_around", {}),
+    ("memory", "end_task", {"status": "success", "description": "Put away all the items.", "summary": "Done."}),
+    ("memory", "check_task", {"task_id": "T1"}),
+    ("memory", "clear_memory", {"drop": True}),
+)
+
+
+def unit_breakdown(units: int = 8) -> dict[str, float]:
+    """A unit's calls made in-process on a `RobotSession` (no MCP, no harness), CPU per part: what
+    an attempt costs the server's tools themselves, and that over its physics (the floor of the ratio
+    with any transport). The mean over `units` after a first."""
+    from robocog.server.tools import CONTROL_TOOLS
+
+    tools = {t.name: t for t in (*ROBOT_TOOLS, *CONTROL_TOOLS)}
+    parts: dict[str, float] = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        robot = RobotSession(SessionConfig(data_dir=Path(tmp)))
+        try:
+            for unit in range(units + 1):
+                for part, name, arguments in _UNIT:
+                    calls = [(a[0], action_args(a)) for a in T1_SEQUENCE] if part == "physics" else [(name, arguments)]
+                    start = time.process_time()
+                    for action, args in calls:
+                        robot.call(tools[action], **args)
+                    if unit > 0:
+                        parts[part] = parts.get(part, 0.0) + time.process_time() - start
+        finally:
+            robot.world.close()
+    out = {f"overhead.in_process.{part}_ms": round(cpu / units * 1000, 1) for part, cpu in parts.items()}
+    out["overhead.in_process.ratio"] = round(sum(parts.values()) / parts["physics"], 2)
     return out
 
 
 def run() -> dict[str, Any]:
     against = os.environ.get("ROBOCOG_BENCH_AGAINST")
-    return measure(Path(sys.executable).parent, Path(against) if against else None)
+    return unit_breakdown() | measure(Path(sys.executable).parent, Path(against) if against else None)
+
+
+def _physics_loop() -> None:
+    """`--physics`: physics-only runs until terminated, a JSON line [ended at, CPU] for each."""
+    stopping = False
+
+    def stop(*_: object) -> None:
+        nonlocal stopping
+        stopping = True
+
+    signal.signal(signal.SIGTERM, stop)
+    print("ready", flush=True)
+    for ended, cpu in physics_runs(lambda: stopping):
+        print(json.dumps([ended, cpu]), flush=True)
 
 
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--against", type=Path, help="another install's bin directory")
-    parser.add_argument("--extra", type=int, default=EXTRA, help="trials beyond the first in the larger study")
+    parser.add_argument("--extra", type=int, default=EXTRA, help="trials beyond the first in the study")
+    parser.add_argument("--physics", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
-    print(json.dumps(measure(Path(sys.executable).parent, args.against, args.extra), indent=2))
+    if args.physics:
+        _physics_loop()
+    else:
+        print(json.dumps(measure(Path(sys.executable).parent, args.against, args.extra), indent=2))
