@@ -1,5 +1,6 @@
 """Server figures: cold start over stdio, an in-memory read-only round trip, T1 as MCP calls over stdio;
-with `ROBOCOG_BENCH_AGAINST=/path/to/other/.venv/bin`, the same from that install right after."""
+with `ROBOCOG_BENCH_AGAINST=/path/to/other/.venv/bin`, the same from that install too, in alternating
+rounds (`run`)."""
 
 from __future__ import annotations
 
@@ -22,6 +23,13 @@ from robocog.shared.paper import T1_SEQUENCE
 
 COLD_STARTS = 5
 ROUND_TRIPS = 500
+TARGETS = {
+    "server.target_cold_start_s": 2.5,
+    "server.target_round_trip_p50_ms": 1.0,
+    "server.target_t1_over_stdio_s": 0.4,
+}
+#: Alternating rounds of both installs when another is measured too (`run`).
+AGAINST_ROUNDS = 3
 T1_RUNS = 7
 
 
@@ -82,25 +90,33 @@ def _p(values: list[float], q: float) -> float:
     return values[min(len(values) - 1, int(q * len(values)))]
 
 
-def against() -> dict[str, float]:
-    """The same figures from another install (`ROBOCOG_BENCH_AGAINST=/its/.venv/bin`: the previous
-    release), measured right after this one's, under `server.against.`; nothing when it is not set."""
-    bin_dir = os.environ.get("ROBOCOG_BENCH_AGAINST")
-    if not bin_dir:
-        return {}
+def _measured_by(python: Path) -> dict[str, float]:
+    """This bench's own figures (`measure`), measured by `python` (an install's) in a process of its own."""
     env = {**os.environ, "ROBOCOG_BENCH_AGAINST": ""}
-    done = subprocess.run(
-        [str(Path(bin_dir) / "python"), __file__], capture_output=True, text=True, timeout=900, env=env
-    )
+    done = subprocess.run([str(python), __file__], capture_output=True, text=True, timeout=900, env=env)
     if done.returncode != 0:
-        raise RuntimeError(f"{bin_dir}: bench_server failed: {done.stderr[-800:]}")
+        raise RuntimeError(f"{python}: bench_server failed: {done.stderr[-800:]}")
     start = 0 if done.stdout.startswith("{") else done.stdout.index("\n{") + 1  # after PyBullet's banner
-    figures = json.loads(done.stdout[start:])
-    return {k.replace("server.", "server.against.", 1): v for k, v in figures.items() if "target" not in k}
+    return {k: v for k, v in json.loads(done.stdout[start:]).items() if "target" not in k}
 
 
 def run() -> dict[str, float]:
-    return {**measure(), **against()}
+    """This install's figures; with `ROBOCOG_BENCH_AGAINST=/its/.venv/bin` (the previous release), both
+    installs' in `AGAINST_ROUNDS` alternating rounds, each figure the median of its rounds (this
+    machine's speed moves a figure measured once by more than the difference), the other's under
+    `server.against.`."""
+    bin_dir = os.environ.get("ROBOCOG_BENCH_AGAINST")
+    if not bin_dir:
+        return measure()
+    rounds: dict[str, list[dict[str, float]]] = {"server.": [], "server.against.": []}
+    for _ in range(AGAINST_ROUNDS):
+        rounds["server."].append(_measured_by(Path(sys.executable)))
+        rounds["server.against."].append(_measured_by(Path(bin_dir) / "python"))
+    out = dict(TARGETS)
+    for prefix, runs in rounds.items():
+        for key in runs[0]:
+            out[key.replace("server.", prefix, 1)] = round(statistics.median(r[key] for r in runs), 4)
+    return out
 
 
 def measure() -> dict[str, float]:
@@ -115,10 +131,7 @@ def measure() -> dict[str, float]:
         t1 = anyio.run(_t1_over_stdio, f"{tmp}/t1")
         out["server.t1_12_calls_over_stdio_s"] = round(statistics.median(t1), 4)
         out["server.t1_12_calls_over_stdio_min_s"] = round(min(t1), 4)
-    out["server.target_cold_start_s"] = 2.5
-    out["server.target_round_trip_p50_ms"] = 1.0
-    out["server.target_t1_over_stdio_s"] = 0.4
-    return out
+    return out | TARGETS
 
 
 if __name__ == "__main__":
