@@ -198,7 +198,8 @@ def clear_memory(
     removed = robot.memory.count()
     if drop:
         return ClearMemoryResult(removed=removed, freed_bytes=robot.drop_namespace())
-    robot.memory.clear()
+    if removed:  # a unit's new namespace is empty: no need to list its records (Chroma holds the GIL)
+        robot.memory.clear()
     return ClearMemoryResult(removed=removed)
 
 
