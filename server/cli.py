@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import gc
 import os
 import sys
 from collections.abc import Sequence
@@ -156,6 +157,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ConfigError as exc:
         print(f"robocog-server: {exc}", file=sys.stderr)
         return 2
+    # What is made by now (the imports, the app, its first robot) lives as long as the process: out of
+    # the collector's sight, its full collections no longer walk it (a fleet's took 0.1 s each).
+    gc.freeze()
     try:
         if args.transport == "stdio":
             import anyio

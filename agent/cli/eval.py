@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import gc
 import sys
 from pathlib import Path
 from typing import Any
@@ -162,6 +163,7 @@ def main(args: argparse.Namespace) -> int:
             where = f"{row.model} trial {row.trial} iteration {row.memory_iteration} {row.task}"
             bar.console.print(f"robocog: warning: {where} errored: {row.error}", markup=False, highlight=False)
 
+        gc.freeze()  # the imports and the study's set-up live as long as the process (see robocog-server)
         try:
             rows = asyncio.run(
                 run_eval(
