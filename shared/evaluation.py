@@ -74,7 +74,10 @@ class EvalConfig(BaseModel):
         "fleet servers over HTTP (robocog-server --robots N), a robot each, far less memory per worker",
     )
     fleet_processes: int | None = Field(
-        default=None, ge=1, description="fleet servers to spawn for --isolation fleet (default: one per core)"
+        default=None,
+        ge=1,
+        description="fleet servers to spawn for --isolation fleet (default: one per core, and one per 16 workers "
+        "when that is more)",
     )
     max_invocations: int = Field(default=10, ge=1)
     max_steps: int = Field(default=60, ge=1)

@@ -30,7 +30,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         "--fleet-processes",
         type=int,
         metavar="P",
-        help="fleet servers to spawn with --isolation fleet (default: cores)",
+        help="fleet servers to spawn with --isolation fleet (default: cores, or one per 16 workers when that is more)",
     )
     ev.add_argument(
         "--url",

@@ -3,10 +3,11 @@
 A fleet server (`robocog-server --transport http --robots N`) hosts a robot per MCP session in one
 process, sharing the embedding model and the Chroma client: about 29 MB per robot instead of about
 370 MB per server process. PyBullet holds the GIL while it steps, so one process uses about one
-core; a study spreads its workers over a few fleets (one per core by default), worker i on fleet
-i mod P. Each fleet keeps its memory in its own data directory, where every unit has a namespace of
-its own. A fleet that dies is started again on the same port over the same data directory when a
-worker next connects (its units resume from the iteration that broke, as with a server process).
+core; a study spreads its workers over a few fleets (by default one per core, and one per 16
+workers when that is more: `default_processes`), worker i on fleet i mod P. Each fleet keeps its
+memory in its own data directory, where every unit has a namespace of its own. A fleet that dies
+is started again on the same port over the same data directory when a worker next connects (its
+units resume from the iteration that broke, as with a server process).
 """
 
 from __future__ import annotations
@@ -35,6 +36,19 @@ def memory_args(server_args: Sequence[str], data_dir: Path) -> list[str]:
     return [*server_args] if memory_url else ["--data-dir", str(data_dir), *server_args]
 
 
+#: The most robots a fleet process serves before the harness spawns more fleets than cores: a fleet runs
+#: one robot's call at a time (PyBullet holds the GIL), so with more robots each call waits longer
+#: for the others' (64 workers on 2 cores reach more of the ideal on 4 fleets than on 2, for about
+#: 0.7 GB more: docs/figures.md, Scale).
+ROBOTS_PER_PROCESS = 16
+
+
+def default_processes(workers: int) -> int:
+    """How many fleets `workers` workers get unless told: one per core, and more when that would put
+    over `ROBOTS_PER_PROCESS` robots in each."""
+    return max(os.cpu_count() or 1, math.ceil(workers / ROBOTS_PER_PROCESS))
+
+
 class Fleets:
     """`processes` fleet servers for `workers` workers, on loopback, each with its own data directory
     under `work_dir`; used as an async context manager (started on entry, stopped on exit)."""
@@ -48,7 +62,7 @@ class Fleets:
         server_command: list[str] | None = None,
         server_args: list[str] | None = None,
     ) -> None:
-        self.processes = max(1, min(processes or os.cpu_count() or 1, workers))
+        self.processes = max(1, min(processes or default_processes(workers), workers))
         #: Robots per fleet: its share of the workers, and one to spare for a session that is closing.
         self.robots = math.ceil(workers / self.processes) + 1
         self.work_dir = work_dir

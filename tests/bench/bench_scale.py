@@ -175,9 +175,12 @@ def speedup() -> dict[str, float]:
     }
 
 
-def throughput(isolation: str, workers: int) -> dict[str, float]:
-    """N workers, 2N units of one T1 attempt each, at LATENCY_S per model turn."""
+def throughput(isolation: str, workers: int, processes: int | None = None, label: str = "") -> dict[str, float]:
+    """N workers, 2N units of one T1 attempt each, at LATENCY_S per model turn (on `processes`
+    fleets if given, else the harness's default; `label` goes into the figures' names)."""
+    fleets = {"fleet_processes": processes} if processes is not None else {}
     config = _study(
+        **fleets,
         models=[{"model": "scripted/planner", "params": {"latency_s": LATENCY_S}}],
         tasks=["T1"],
         trials=2 * workers,
@@ -226,7 +229,7 @@ def throughput(isolation: str, workers: int) -> dict[str, float]:
     # The most this machine's cores could run, given the CPU an attempt took (harness + servers).
     cpu_per_attempt = (harness_cpu + servers_cpu) / len(rows)
     cpu_ceiling = (os.cpu_count() or 1) * 60 / cpu_per_attempt
-    key = f"scale.latency1s_{isolation}_{workers}_workers"
+    key = f"scale.latency1s_{isolation}_{workers}_workers{label}"
     return {
         f"{key}.attempts": len(rows),
         f"{key}.turns_per_attempt": round(mean_turns, 1),
@@ -343,6 +346,8 @@ def run(only: str = "") -> dict[str, Any]:
         runs = [(throughput("fleet", 64), against("throughput64")) for _ in range(THROUGHPUT_ROUNDS)]
         figures.update(_mean([ours for ours, _ in runs]))
         figures.update(_mean([theirs for _, theirs in runs]))
+        # The same on one fleet per core, as the harness ran it before the fleets grew with the workers.
+        figures.update(throughput("fleet", 64, processes=os.cpu_count() or 1, label="_a_fleet_per_core"))
     if only in ("", "speedup"):
         figures.update(speedup())
     if only in ("", "ray"):
