@@ -14,14 +14,14 @@ bounding box is the same to the bit (`tests/unit/test_world_memory.py` checks it
 from __future__ import annotations
 
 import functools
-import hashlib
 import math
 import struct
-import tempfile
 from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
+
+from robocog.server.world.derived import derived_path, write_once
 
 #: How many directions (besides the six along the axes) a kept point must be the furthest along.
 DIRECTIONS = 250
@@ -50,8 +50,7 @@ def _target(source: Path) -> Path | None:
     data = _binary_stl(source)
     if data is None:
         return None
-    digest = hashlib.sha256(f"robocog extreme points 1, {DIRECTIONS}".encode() + data).hexdigest()[:16]
-    return Path(tempfile.gettempdir()) / "robocog-urdf" / f"{source.stem}-{digest}.stl"
+    return derived_path(source.stem, f"robocog extreme points 1, {DIRECTIONS}".encode() + data, ".stl")
 
 
 def extreme_points(points: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]:
@@ -72,16 +71,6 @@ def stl_bytes(points: npt.NDArray[np.float32]) -> bytes:
         + struct.pack("<I", len(triangles))
         + triangles.tobytes()
     )
-
-
-def write_once(target: Path, data: bytes) -> Path:
-    """`data` at `target` unless it is there already (atomically: parallel workers never see half a file)."""
-    if not target.exists():
-        target.parent.mkdir(parents=True, exist_ok=True)
-        tmp = target.with_suffix(f".{id(data)}.tmp")
-        tmp.write_bytes(data)
-        tmp.replace(target)
-    return target
 
 
 def _binary_stl(source: Path) -> bytes | None:

@@ -11,16 +11,14 @@ to the temporary directory, named by its source's content, with the source's mat
 from __future__ import annotations
 
 import functools
-import hashlib
 import re
-import tempfile
 from importlib.metadata import version
 from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
 
-from robocog.server.world.arm_meshes import write_once
+from robocog.server.world.derived import derived_path, write_once
 
 #: The share of a visual mesh's triangles the simplification removes.
 REDUCTION = 0.9
@@ -47,8 +45,7 @@ def _target(source: Path) -> Path | None:
     if data.count(b"\nf ") < SMALL or data.count(b"\nusemtl ") > 1:
         return None
     method = f"robocog arm visuals 1, {REDUCTION}, fast-simplification {_simplifier_version()}"
-    digest = hashlib.sha256(method.encode() + data[1:]).hexdigest()[:16]
-    return Path(tempfile.gettempdir()) / "robocog-urdf" / f"{source.stem}-{digest}.obj"
+    return derived_path(source.stem, method.encode() + data[1:], ".obj")
 
 
 @functools.cache
@@ -61,7 +58,7 @@ def _write(source: Path, target: Path) -> None:
 
     text = source.read_text(encoding="utf-8", errors="replace")
     points, faces = fast_simplification.simplify(*parse_obj(text), target_reduction=REDUCTION)
-    write_once(target, obj_bytes(points, faces, _materials(source, text, target.stem)))
+    write_once(target, obj_bytes(points, faces, _materials(source, text, target.with_suffix(".mtl"))))
 
 
 def parse_obj(text: str) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.int32]]:
@@ -108,13 +105,12 @@ def obj_bytes(
     return ("\n".join(lines) + "\n").encode()
 
 
-def _materials(source: Path, text: str, name: str) -> tuple[str, str] | None:
-    """The source's material library, copied beside the simplified mesh, and its first material used."""
+def _materials(source: Path, text: str, library_copy: Path) -> tuple[str, str] | None:
+    """The source's material library, copied to `library_copy` (beside the simplified mesh), and its
+    first material used."""
     library = re.search(r"^mtllib\s+(\S+)", text, re.M)
     used = re.search(r"^usemtl\s+(\S+)", text, re.M)
     if library is None or used is None or not (source.parent / library.group(1)).is_file():
         return None
-    write_once(
-        Path(tempfile.gettempdir()) / "robocog-urdf" / f"{name}.mtl", (source.parent / library.group(1)).read_bytes()
-    )
-    return f"{name}.mtl", used.group(1)
+    write_once(library_copy, (source.parent / library.group(1)).read_bytes())
+    return library_copy.name, used.group(1)

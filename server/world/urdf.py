@@ -12,13 +12,13 @@ temporary directory under a name that carries its digest, again if it has gone f
 
 from __future__ import annotations
 
-import hashlib
 import re
-import tempfile
+from collections.abc import Callable
 from functools import cache
 from pathlib import Path
 
 from robocog.server.world import arm_meshes, arm_visuals
+from robocog.server.world.derived import derived_path, write_once
 from robocog.shared.robot_spec import RobotSpec, resolve_urdf, revolute_joint_pattern
 
 
@@ -31,7 +31,7 @@ def derived_urdf(spec: RobotSpec) -> Path:
     if not all(path.exists() for path in _written(text, target)):
         _derived.cache_clear()  # derive again: the meshes that have gone are written again on the way
         text, target = _derived(*key)
-        arm_meshes.write_once(target, text.encode())
+        write_once(target, text.encode())
     return target
 
 
@@ -56,22 +56,17 @@ def _derived(urdf: str, continuous_joints: tuple[str, ...]) -> tuple[str, Path]:
             raise ValueError(f"{source}: no revolute joint named {joint!r} to make continuous")
         block = re.compile(rf'(<joint\s+name="{re.escape(joint)}".*?</joint>)', re.S)
         text = block.sub(lambda m: re.sub(r'\s(lower|upper)="[^"]*"', "", m.group(1)), text)
-    digest = hashlib.sha256(text.encode()).hexdigest()[:16]
-    target = Path(tempfile.gettempdir()) / "robocog-urdf" / f"{source.stem}-{digest}.urdf"
-    return text, arm_meshes.write_once(target, text.encode())
+    return text, write_once(derived_path(source.stem, text.encode(), ".urdf"), text.encode())
 
 
 def _simplified_visual(block: re.Match[str]) -> str:
-    return re.sub(
-        r'filename="([^"]+)"',
-        lambda m: f'filename="{arm_visuals.simplified_obj(Path(m.group(1))).as_posix()}"',
-        block.group(0),
-    )
+    return _meshes_replaced(block, arm_visuals.simplified_obj)
 
 
 def _reduced_collision(block: re.Match[str]) -> str:
-    return re.sub(
-        r'filename="([^"]+)"',
-        lambda m: f'filename="{arm_meshes.reduced_stl(Path(m.group(1))).as_posix()}"',
-        block.group(0),
-    )
+    return _meshes_replaced(block, arm_meshes.reduced_stl)
+
+
+def _meshes_replaced(block: re.Match[str], derive: Callable[[Path], Path]) -> str:
+    """The URDF block with each mesh file it names replaced by the one `derive` makes of it."""
+    return re.sub(r'filename="([^"]+)"', lambda m: f'filename="{derive(Path(m.group(1))).as_posix()}"', block.group(0))
