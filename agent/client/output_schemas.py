@@ -2,9 +2,10 @@
 
 The MCP SDK's client checks every tool result against the tool's output schema, with a validator it
 compiles on a session's first call of the tool, after checking the schema itself against JSON
-Schema's metaschema. A harness on a fleet opens a session per unit, so it compiled every tool's
-validator again for every attempt: 27 % of the harness's CPU with 32 workers. The validators are
-immutable, so one per distinct schema serves every session; the SDK still validates every result.
+Schema's metaschema. A study opens a session per worker (and again after a server broke), so it
+compiled every tool's validator again for every worker: 27 % of the harness's CPU with 32 workers on
+fleets. The validators are immutable, so one per distinct schema serves every session; the SDK still
+validates every result.
 """
 
 from __future__ import annotations
