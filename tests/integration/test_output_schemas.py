@@ -38,3 +38,38 @@ async def test_a_second_session_reuses_the_first_ones_validators_and_still_valid
         broken = dict(result.structured_content or {}, locations="not a list")
         assert next(look.iter_errors(broken), None) is not None
         assert next(look.iter_errors(result.structured_content), None) is None
+
+
+def test_the_fast_check_answers_valid_results_and_the_sdk_reports_invalid_ones() -> None:
+    from jsonschema import Draft202012Validator
+    from referencing import Registry
+
+    schema = {
+        "type": "object",
+        "properties": {"where": {"$ref": "#/$defs/Place"}, "mail": {"type": "string", "format": "email"}},
+        "required": ["where"],
+        "$defs": {"Place": {"type": "array", "items": {"type": "number"}, "minItems": 2}},
+    }
+    sdk = Draft202012Validator(schema, registry=Registry())
+    checked = output_schemas.FastValidator.over(sdk, schema)
+    assert isinstance(checked, output_schemas.FastValidator)
+    for instance in ({"where": [1, 2]}, {"where": [1, 2], "mail": "not an address"}):  # formats are not asserted
+        assert list(checked.iter_errors(instance)) == list(sdk.iter_errors(instance)) == []
+    for instance in ({"where": [1]}, {"where": "kitchen"}, {}, []):
+        messages = [e.message for e in sdk.iter_errors(instance)]
+        assert [e.message for e in checked.iter_errors(instance)] == messages != []
+
+
+def test_a_schema_that_refers_outside_itself_is_left_to_the_sdk_and_fetches_nothing(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    asked: list[str] = []
+
+    def refuse(uri: str) -> object:  # jsonschema-rs would fetch the URI over the network without one
+        asked.append(uri)
+        return output_schemas._no_retrieval(uri)
+
+    monkeypatch.setattr(output_schemas, "_no_retrieval", refuse)
+    sdk = object()
+    assert output_schemas.FastValidator.over(sdk, {"$ref": "https://example.com/schema.json"}) is sdk
+    assert set(asked) == {"https://example.com/schema.json"}  # asked (it may ask again), never fetched
