@@ -261,6 +261,30 @@ async def test_a_2026_client_listens_for_world_updates(modern: Client) -> None:
                 break
 
 
+async def test_world_updates_are_published_only_while_someone_listens(
+    modern: Client, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from mcp.server.mcpserver import Context
+
+    published: list[str] = []
+    real = Context.notify_resource_updated
+
+    async def counted(self: Context[Any], uri: Any) -> None:
+        published.append(str(uri))
+        await real(self, uri)
+
+    monkeypatch.setattr(Context, "notify_resource_updated", counted)
+    await modern.call_tool("move_to", {"location": "Living Room"})
+    assert published == []  # no listen stream: no event built
+    async with modern.listen(resource_subscriptions=[STATE]) as subscription:
+        await modern.call_tool("move_to", {"location": "Kitchen Table"})
+        with anyio.fail_after(5):
+            async for event in subscription:
+                assert getattr(event, "uri", None) == STATE
+                break
+    assert STATE in published
+
+
 async def test_a_call_collects_log_records_only_for_a_client_that_asked(
     desktop: Client, inbox: Inbox, monkeypatch: pytest.MonkeyPatch
 ) -> None:
