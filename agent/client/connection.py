@@ -176,6 +176,7 @@ async def _http_transport(url: str, token: str | None) -> AsyncIterator[Any]:
     import httpx2  # the MCP SDK's HTTP client
     from mcp.client.streamable_http import streamable_http_client
 
+    from robocog.agent.client.aiohttp_transport import transport_for
     from robocog.agent.client.keepalive import KeepAliveTransport
 
     headers = {"Authorization": f"Bearer {token}"} if token else {}
@@ -192,9 +193,10 @@ async def _http_transport(url: str, token: str | None) -> AsyncIterator[Any]:
     timeout = httpx2.Timeout(30.0, read=300.0)
     # One client and one pooled connection for the whole attempt: each answer read to its end (see
     # keepalive), kept through the model's turns (httpx's 5 s default dropped it between most calls),
-    # and dropped before the server would close it.
+    # and dropped before the server would close it. Over plain HTTP, aiohttp sends the bytes: its parser
+    # is compiled, httpcore's is Python (see aiohttp_transport).
     limits = httpx2.Limits(keepalive_expiry=CLIENT_KEEP_ALIVE_S)
-    transport = KeepAliveTransport(httpx2.AsyncHTTPTransport(limits=limits))
+    transport = KeepAliveTransport(transport_for(url, limits=limits))
     hooks = {"response": [refused]}
     async with (
         httpx2.AsyncClient(headers=headers, timeout=timeout, transport=transport, event_hooks=hooks) as client,

@@ -1,9 +1,8 @@
 """One TCP connection for an attempt over HTTP: robocog's client reads each answer to its end, so
-httpcore keeps the connection for the next call (the MCP SDK alone opened one per call)."""
+the connection is kept for the next call (the MCP SDK alone opened one per call)."""
 
 from __future__ import annotations
 
-import logging
 import os
 import subprocess
 import time
@@ -14,6 +13,7 @@ import httpx
 import pytest
 from mcp import Client
 
+from robocog.agent.client.aiohttp_transport import AiohttpTransport
 from robocog.agent.client.connection import _http_transport
 from tests.helpers import free_port, server_command
 
@@ -51,32 +51,23 @@ def _wait_for_port(proc: subprocess.Popen[bytes], port: int, log: Path) -> None:
     raise AssertionError(f"the server did not start: {log.read_text()}")
 
 
-class Connects(logging.Handler):
-    """The TCP connections httpcore opens (its debug log says `connect_tcp.started`)."""
+async def test_calls_over_http_share_one_connection(url: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    made: list[AiohttpTransport] = []
+    real = AiohttpTransport.__init__
 
-    def __init__(self) -> None:
-        super().__init__(logging.DEBUG)
-        self.count = 0
+    def recorded(self: AiohttpTransport, **kwargs: float) -> None:
+        real(self, **kwargs)
+        made.append(self)
 
-    def emit(self, record: logging.LogRecord) -> None:
-        self.count += record.getMessage().startswith("connect_tcp.started")
-
-
-async def test_calls_over_http_share_one_connection(url: str) -> None:
-    connects, log = Connects(), logging.getLogger("httpcore2")
-    level = log.level
-    log.addHandler(connects)
-    log.setLevel(logging.DEBUG)
-    try:
-        async with Client(_http_transport(url, None), mode="legacy") as client:
-            await client.call_tool("look_around", {})  # the session, its GET stream and the world are set up
-            before = connects.count
-            for _ in range(CALLS):
-                assert not (await client.call_tool("look_around", {})).is_error
-            opened = connects.count - before
-    finally:
-        log.removeHandler(connects)
-        log.setLevel(level)
+    monkeypatch.setattr(AiohttpTransport, "__init__", recorded)
+    async with Client(_http_transport(url, None), mode="legacy") as client:
+        await client.call_tool("look_around", {})  # the session, its GET stream and the world are set up
+        (transport,) = made  # plain HTTP goes through aiohttp
+        before = transport.connections_opened
+        for _ in range(CALLS):
+            assert not (await client.call_tool("look_around", {})).is_error
+        opened = transport.connections_opened - before
     # One per call without the draining; at most one more than the pooled one with it (a call may
     # start while the previous answer's last bytes are still being read).
     assert opened <= 1, opened
+    assert transport.connections_opened >= 2  # the count counts: the POSTs' and the GET stream's
