@@ -109,15 +109,48 @@ def _tree_cpu_s(root: int) -> float:
     return total / TICKS
 
 
-def attempt_cpu_s(bin_dir: Path, isolation: str, extra: int) -> tuple[float, float]:
+def _thread_parts_s(root: int) -> dict[str, float]:
+    """The CPU seconds of the threads of process `root` (the harness) and its descendants (the
+    servers), by part: the harness's threads; a server's event loop (its main thread: the MCP stack,
+    the transport, the tool wiring); a server's other Python threads (the tool bodies, run on worker
+    threads); and ChromaDB's native threads (named tokio-* and sqlx-*)."""
+    stats: dict[int, int] = {}
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            with contextlib.suppress(OSError):
+                text = Path(f"/proc/{entry}/stat").read_text()
+                stats[int(entry)] = int(text[text.rindex(")") + 2 :].split()[1])
+    tree, todo = [], [root]
+    while todo:
+        pid = todo.pop()
+        tree.append(pid)
+        todo += [child for child, parent in stats.items() if parent == pid]
+    parts: dict[str, float] = {}
+    for pid in tree:
+        with contextlib.suppress(OSError):
+            for tid in os.listdir(f"/proc/{pid}/task"):
+                text = Path(f"/proc/{pid}/task/{tid}/stat").read_text()
+                name, fields = text[text.index("(") + 1 : text.rindex(")")], text[text.rindex(")") + 2 :].split()
+                if pid == root:
+                    part = "harness"
+                elif name.startswith(("tokio", "sqlx")):
+                    part = "chroma"
+                else:
+                    part = "server_loop" if int(tid) == pid else "server_tools"
+                parts[part] = parts.get(part, 0.0) + (int(fields[11]) + int(fields[12])) / TICKS
+    return parts
+
+
+def attempt_cpu_s(bin_dir: Path, isolation: str, extra: int) -> tuple[float, float, dict[str, float]]:
     """The CPU of one T1 attempt inside a study of `1 + extra` (`robocog eval` as a process), and the
     physics-only CPU of its twelve actions at the same time: the CPU of the study and its servers from
     the moment the first attempt's row is written to the moment the last one's is, over `extra` (the
-    study's start-up and end are outside that window); and the median of the physics-only runs that a
-    process of its own ended within that window (`--physics`)."""
+    study's start-up and end are outside that window); the median of the physics-only runs that a
+    process of its own ended within that window (`--physics`); and the attempt's CPU by part
+    (`_thread_parts_s`)."""
     with tempfile.TemporaryDirectory() as tmp:
         config, rows = _config(Path(tmp) / "study.yaml", 1 + extra, isolation), Path(tmp) / "rows.jsonl"
-        marks: dict[int, tuple[float, float]] = {}  # rows written -> (time, CPU of the study)
+        marks: dict[int, tuple[float, float, dict[str, float]]] = {}  # rows written -> (time, CPU, by part)
         physics = subprocess.Popen(
             [sys.executable, __file__, "--physics"], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True
         )
@@ -136,7 +169,7 @@ def attempt_cpu_s(bin_dir: Path, isolation: str, extra: int) -> tuple[float, flo
                     size = rows.stat().st_size
                     written = rows.read_bytes().count(b"\n")
                     if written in (1, 1 + extra) and written not in marks:
-                        marks[written] = (time.time(), _tree_cpu_s(study.pid))
+                        marks[written] = (time.time(), _tree_cpu_s(study.pid), _thread_parts_s(study.pid))
                 time.sleep(POLL_S)
             error = study.stderr.read() if study.stderr else ""
         physics.terminate()
@@ -146,11 +179,12 @@ def attempt_cpu_s(bin_dir: Path, isolation: str, extra: int) -> tuple[float, flo
         done = [json.loads(line) for line in rows.read_text(encoding="utf-8").splitlines()]
         if len(done) != 1 + extra or not all(r["true_success"] for r in done):
             raise RuntimeError(f"{bin_dir}: the study did not succeed on every trial: {done}")
-    (start, first), (end, last) = marks[1], marks[1 + extra]
+    (start, first, parts_first), (end, last, parts_last) = marks[1], marks[1 + extra]
     within = [cpu for at, cpu in ended if start <= at <= end]
     if len(within) < 3:
         raise RuntimeError(f"only {len(within)} physics-only runs ended within the study's window")
-    return (last - first) / extra, statistics.median(within)
+    parts = {part: (cpu - parts_first.get(part, 0.0)) / extra for part, cpu in parts_last.items()}
+    return (last - first) / extra, statistics.median(within), parts
 
 
 def measure(here: Path, against: Path | None, extra: int = EXTRA) -> dict[str, Any]:
@@ -161,13 +195,16 @@ def measure(here: Path, against: Path | None, extra: int = EXTRA) -> dict[str, A
     physics: list[float] = []
     attempts: dict[str, list[float]] = {}
     ratios: dict[str, list[float]] = {}
+    parts: dict[str, dict[str, list[float]]] = {}
     for _ in range(ROUNDS):
         for isolation, name in (("process", "stdio"), ("fleet", "fleet")):
             for prefix, bin_dir in installs:
-                attempt, at_the_time = attempt_cpu_s(bin_dir, isolation, extra)
+                attempt, at_the_time, by_part = attempt_cpu_s(bin_dir, isolation, extra)
                 physics.append(at_the_time)
                 attempts.setdefault(f"{prefix}{name}", []).append(attempt)
                 ratios.setdefault(f"{prefix}{name}", []).append(attempt / at_the_time)
+                for part, cpu in by_part.items():
+                    parts.setdefault(f"{prefix}{name}", {}).setdefault(part, []).append(cpu)
     out: dict[str, Any] = {
         "overhead.physics_cpu_s": round(statistics.mean(physics), 3),
         "overhead.physics_cpu_s_runs": [round(v, 3) for v in physics],
@@ -177,6 +214,8 @@ def measure(here: Path, against: Path | None, extra: int = EXTRA) -> dict[str, A
         out[f"overhead.{key}.attempt_cpu_s_runs"] = [round(v, 3) for v in values]
         out[f"overhead.{key}.ratio"] = round(statistics.mean(ratios[key]), 2)
         out[f"overhead.{key}.ratio_runs"] = [round(v, 2) for v in ratios[key]]
+        for part, cpus in parts[key].items():  # where the attempt's CPU went (the tool bodies hold the physics)
+            out[f"overhead.{key}.part.{part}_ms"] = round(statistics.mean(cpus) * 1000, 1)
     out["overhead.target_ratio"] = 1.5
     return out
 
