@@ -1,6 +1,10 @@
 """What an attempt costs beyond its physics: the marginal CPU of one scripted T1 attempt in a study
-(harness and server processes together) divided by the CPU of the same twelve actions run
-in-process on a `World`, both measured in the same run, at the same moments.
+(harness and server processes together) divided by the CPU of the same physical actions (the tools
+that act in the world or look at it, as the attempt called them) run in-process on a `World`, both
+measured in the same run, at the same moments. The scripted planner's T1 is the paper's twelve
+actions plus a drive to the TV and a grab of it that fails (it tries every object it is asked to put
+away) and a last look around: the physics-only runs replay the attempt's own calls, read from the
+study's first trace.
 
 The marginal CPU is read inside one study of `1 + EXTRA` trials (`robocog eval` as a process, a
 trial a unit): the CPU of the harness and its servers (every process of its tree, from /proc) when
@@ -10,7 +14,7 @@ their noise (seconds of CPU) does not divide into the figure; every unit's own w
 memory namespace made and dropped, its verdict) is inside it. Averaged over `ROUNDS` measurements,
 alternating with the other install's; over stdio (a server process per worker) and on a fleet (HTTP).
 
-The physics-only CPU is measured by a process of its own running the twelve actions again and again
+The physics-only CPU is measured by a process of its own running those actions again and again
 while the study runs (the median of the runs that ended within the study's window): this machine's
 speed drifts by a third within minutes and switches between two speeds for seconds at a time, so a
 physics figure measured before or after a study can be a third off the study's own.
@@ -43,7 +47,7 @@ from robocog.server.tools import ROBOT_TOOLS
 from robocog.server.world.world import World
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository, for tests.helpers
-from tests.helpers import T1_SEQUENCE, action_args, installed_env
+from tests.helpers import installed_env
 
 EXTRA = 10
 #: How often the study's rows are looked at (the CPU is read when a row that marks the window appears).
@@ -54,9 +58,15 @@ ROUNDS = 3
 ENV = installed_env()
 
 
-def physics_runs(stop: Callable[[], bool]) -> Iterator[tuple[float, float]]:
-    """T1's twelve actions on an in-process world, from the paper's start, again and again until
-    `stop()`: for each run, when it ended (time.time) and its CPU (its thread's)."""
+#: The tools that act in the world or look at it: an attempt's physics, replayed by the physics-only runs.
+PHYSICAL = frozenset({"look_around", "look", "move_to", "grab", "place", "open", "close"})
+
+
+def physics_runs(actions: list[tuple[str, dict[str, Any]]], stop: Callable[[], bool]) -> Iterator[tuple[float, float]]:
+    """`actions` (an attempt's physical tool calls, in its order) on an in-process world, from the
+    paper's start, again and again until `stop()`: for each run, when it ended (time.time) and its
+    CPU (its thread's). A failed action (the planner tries the TV, which cannot be grabbed) fails
+    here as it did in the attempt."""
     tools = {t.name: t for t in ROBOT_TOOLS}
     world = World()
     robot = RobotSession(SessionConfig(), world=world)
@@ -64,12 +74,17 @@ def physics_runs(stop: Callable[[], bool]) -> Iterator[tuple[float, float]]:
         while not stop():
             world.reset()
             start = time.thread_time()
-            for action in T1_SEQUENCE:
-                result = robot.call(tools[action[0]], **action_args(action))
-                assert result.status == "success", result.message
+            for name, arguments in actions:
+                robot.call(tools[name], **arguments)
             yield time.time(), time.thread_time() - start
     finally:
         world.close()
+
+
+def attempt_actions(trace: Path) -> list[tuple[str, dict[str, Any]]]:
+    """The physical tool calls of the attempt traced in `trace` (a JSONL trace), in their order."""
+    events = [json.loads(line) for line in trace.read_text(encoding="utf-8").splitlines()]
+    return [(e["name"], e["arguments"]) for e in events if e["type"] == "tool_call" and e["name"] in PHYSICAL]
 
 
 def _config(path: Path, trials: int, isolation: str) -> Path:
@@ -141,20 +156,27 @@ def _thread_parts_s(root: int) -> dict[str, float]:
     return parts
 
 
-def attempt_cpu_s(bin_dir: Path, isolation: str, extra: int) -> tuple[float, float, dict[str, float]]:
+def attempt_cpu_s(
+    bin_dir: Path, isolation: str, extra: int
+) -> tuple[float, float, dict[str, float], list[tuple[str, dict[str, Any]]]]:
     """The CPU of one T1 attempt inside a study of `1 + extra` (`robocog eval` as a process), and the
-    physics-only CPU of its twelve actions at the same time: the CPU of the study and its servers from
+    physics-only CPU of its physical actions at the same time: the CPU of the study and its servers from
     the moment the first attempt's row is written to the moment the last one's is, over `extra` (the
     study's start-up and end are outside that window); the median of the physics-only runs that a
-    process of its own ended within that window (`--physics`); and the attempt's CPU by part
-    (`_thread_parts_s`)."""
+    process of its own ended within that window (`--physics`); the attempt's CPU by part
+    (`_thread_parts_s`); and the actions replayed."""
     with tempfile.TemporaryDirectory() as tmp:
         config, rows = _config(Path(tmp) / "study.yaml", 1 + extra, isolation), Path(tmp) / "rows.jsonl"
         marks: dict[int, tuple[float, float, dict[str, float]]] = {}  # rows written -> (time, CPU, by part)
         physics = subprocess.Popen(
-            [sys.executable, __file__, "--physics"], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True
+            [sys.executable, __file__, "--physics"],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.DEVNULL,
+            text=True,
         )
-        assert physics.stdout is not None and physics.stdout.readline().strip() == "ready"
+        assert physics.stdin is not None and physics.stdout is not None
+        assert physics.stdout.readline().strip() == "ready"
         with subprocess.Popen(
             [str(bin_dir / "robocog"), "eval", str(config), "--out", str(rows), "--quiet"],
             stdout=subprocess.DEVNULL,
@@ -170,6 +192,11 @@ def attempt_cpu_s(bin_dir: Path, isolation: str, extra: int) -> tuple[float, flo
                     written = rows.read_bytes().count(b"\n")
                     if written in (1, 1 + extra) and written not in marks:
                         marks[written] = (time.time(), _tree_cpu_s(study.pid), _thread_parts_s(study.pid))
+                        if written == 1:  # the physics-only runs replay the first attempt's actions
+                            first = json.loads(rows.read_text(encoding="utf-8").splitlines()[0])
+                            actions = attempt_actions(Path(tmp) / first["trace"])
+                            physics.stdin.write(json.dumps(actions) + "\n")
+                            physics.stdin.flush()
                 time.sleep(POLL_S)
             error = study.stderr.read() if study.stderr else ""
         physics.terminate()
@@ -184,7 +211,7 @@ def attempt_cpu_s(bin_dir: Path, isolation: str, extra: int) -> tuple[float, flo
     if len(within) < 3:
         raise RuntimeError(f"only {len(within)} physics-only runs ended within the study's window")
     parts = {part: (cpu - parts_first.get(part, 0.0)) / extra for part, cpu in parts_last.items()}
-    return (last - first) / extra, statistics.median(within), parts
+    return (last - first) / extra, statistics.median(within), parts, actions
 
 
 def measure(here: Path, against: Path | None, extra: int = EXTRA) -> dict[str, Any]:
@@ -199,7 +226,7 @@ def measure(here: Path, against: Path | None, extra: int = EXTRA) -> dict[str, A
     for _ in range(ROUNDS):
         for isolation, name in (("process", "stdio"), ("fleet", "fleet")):
             for prefix, bin_dir in installs:
-                attempt, at_the_time, by_part = attempt_cpu_s(bin_dir, isolation, extra)
+                attempt, at_the_time, by_part, actions = attempt_cpu_s(bin_dir, isolation, extra)
                 physics.append(at_the_time)
                 attempts.setdefault(f"{prefix}{name}", []).append(attempt)
                 ratios.setdefault(f"{prefix}{name}", []).append(attempt / at_the_time)
@@ -217,30 +244,29 @@ def measure(here: Path, against: Path | None, extra: int = EXTRA) -> dict[str, A
         for part, cpus in parts[key].items():  # where the attempt's CPU went (the tool bodies hold the physics)
             out[f"overhead.{key}.part.{part}_ms"] = round(statistics.mean(cpus) * 1000, 1)
     out["overhead.target_ratio"] = 1.5
-    return out
+    out["overhead.physical_actions"] = len(actions)
+    return out | unit_breakdown(actions)
 
 
-#: What a unit of the study asks of its robot besides the model's twelve actions, in its order (the
+#: What a unit of the study asks of its robot besides the model's physical actions, in its order (the
 #: harness's calls and the planner's: `agent/harness/runner.py`, the planner's trace), by part.
 _UNIT: tuple[tuple[str, str, dict[str, Any]], ...] = (
     ("reset", "reset_world", {"seed": 0, "memory_namespace": "overhead-unit", "search_k": 3}),
     ("memory", "clear_memory", {}),
     ("other", "begin_task", {"task_id": "T1"}),
     ("memory", "search_memory", {"query": "Put away all the items into the shelf."}),
-    ("other", "look_around", {}),
     ("other", "add_to_scratchpad", {"text": "Plan: the cube, the mug and the box to the shelf."}),
-    ("physics", "", {}),  # the twelve actions
-    ("other", "look_around", {}),
+    ("physics", "", {}),  # the physical actions (two look arounds among them)
     ("memory", "end_task", {"status": "success", "description": "Put away all the items.", "summary": "Done."}),
     ("memory", "check_task", {"task_id": "T1"}),
     ("memory", "clear_memory", {"drop": True}),
 )
 
 
-def unit_breakdown(units: int = 8) -> dict[str, float]:
-    """A unit's calls made in-process on a `RobotSession` (no MCP, no harness), CPU per part: what
-    an attempt costs the server's tools themselves, and that over its physics (the floor of the ratio
-    with any transport). The mean over `units` after a first."""
+def unit_breakdown(actions: list[tuple[str, dict[str, Any]]], units: int = 8) -> dict[str, float]:
+    """A unit's calls made in-process on a `RobotSession` (no MCP, no harness), with `actions` as its
+    physics, CPU per part: what an attempt costs the server's tools themselves, and that over its
+    physics (the floor of the ratio with any transport). The mean over `units` after a first."""
     from robocog.server.tools import CONTROL_TOOLS
 
     tools = {t.name: t for t in (*ROBOT_TOOLS, *CONTROL_TOOLS)}
@@ -250,7 +276,7 @@ def unit_breakdown(units: int = 8) -> dict[str, float]:
         try:
             for unit in range(units + 1):
                 for part, name, arguments in _UNIT:
-                    calls = [(a[0], action_args(a)) for a in T1_SEQUENCE] if part == "physics" else [(name, arguments)]
+                    calls = actions if part == "physics" else [(name, arguments)]
                     start = time.process_time()
                     for action, args in calls:
                         robot.call(tools[action], **args)
@@ -265,11 +291,12 @@ def unit_breakdown(units: int = 8) -> dict[str, float]:
 
 def run() -> dict[str, Any]:
     against = os.environ.get("ROBOCOG_BENCH_AGAINST")
-    return unit_breakdown() | measure(Path(sys.executable).parent, Path(against) if against else None)
+    return measure(Path(sys.executable).parent, Path(against) if against else None)
 
 
 def _physics_loop() -> None:
-    """`--physics`: physics-only runs until terminated, a JSON line [ended at, CPU] for each."""
+    """`--physics`: once the attempt's actions arrive on stdin (a JSON list of [tool, arguments]),
+    physics-only runs of them until terminated, a JSON line [ended at, CPU] for each."""
     stopping = False
 
     def stop(*_: object) -> None:
@@ -277,8 +304,11 @@ def _physics_loop() -> None:
         stopping = True
 
     signal.signal(signal.SIGTERM, stop)
+    world = World()  # imports and the first world's derived files, before the study starts
+    world.close()
     print("ready", flush=True)
-    for ended, cpu in physics_runs(lambda: stopping):
+    actions = [(name, arguments) for name, arguments in json.loads(sys.stdin.readline())]
+    for ended, cpu in physics_runs(actions, lambda: stopping):
         print(json.dumps([ended, cpu]), flush=True)
 
 
