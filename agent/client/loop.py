@@ -106,14 +106,19 @@ async def run_episode(
     server_label: str = "",
     protocol: EvalProtocol = PROTOCOLS["robocog"],
     conversation: list[dict[str, Any]] | None = None,
+    furniture: bool | None = None,
 ) -> EpisodeResult:
     """Run one task to its end (or to the invocation limit) and return how it went.
 
     `conversation` is the message list to continue (the paper's protocol runs T2 after T1 in one
     conversation); it is extended in place, and an empty one starts with the system prompt.
+    `furniture`: whether to offer open and close, when the caller has asked the world already (the
+    harness, for the attempt's provenance); None asks it (`world_has_furniture`).
     """
     started = time.monotonic()
-    furniture = protocol.offers_furniture and await world_has_furniture(client, tools)
+    if furniture is None:
+        furniture = await world_has_furniture(client, tools)
+    furniture = protocol.offers_furniture and furniture
     definitions = function_definitions(tools, vision=settings.vision and protocol.offers_camera, furniture=furniture)
     names = {d["function"]["name"] for d in definitions}
     trace.emit(

@@ -244,6 +244,7 @@ class Runner:
                 tools=robot.tools,
                 protocol=self.protocol,
                 conversation=conversation,
+                furniture=furniture,  # asked once, for the provenance and the episode alike
             )
             checked = await self.controls(robot).check_task(task_id)
         except Exception as exc:  # the server or the transport died: this attempt fails, not the study

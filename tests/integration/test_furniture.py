@@ -126,3 +126,32 @@ async def test_a_subscriber_hears_of_a_door_opened_not_of_a_failed_open(tmp_path
                 await anyio.sleep(0.01)
         await anyio.sleep(0.05)
     assert updated == ["robocog://world/state"] * 2  # the move, then the fridge's door
+
+
+async def test_an_episode_told_whether_there_is_furniture_does_not_ask_the_world_again(
+    robot: Client, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The harness asks once per attempt, for the provenance, and tells the episode."""
+    from robocog.agent.client import loop
+    from robocog.agent.client.settings import AgentSettings
+    from robocog.agent.client.trace_sinks import Trace
+
+    asked: list[bool] = []
+    real = loop.world_has_furniture
+
+    async def counted(client: Client, tools: Any) -> bool:
+        asked.append(await real(client, tools))
+        return asked[-1]
+
+    monkeypatch.setattr(loop, "world_has_furniture", counted)
+    tools = (await robot.list_tools()).tools
+    offered: dict[bool | None, set[str]] = {}
+    for told in (None, False, True):
+        trace = Trace(tmp_path / f"run-{told}.jsonl")
+        settings = AgentSettings(model="scripted/planner", max_invocations=1, max_steps=1)
+        await loop.run_episode(robot, "Look around.", settings, trace, system_prompt="", tools=tools, furniture=told)
+        trace.close()
+        started = next(e for e in trace.events if e.type == "run_started")
+        offered[told] = set(started.tools) & FURNITURE_TOOLS
+    assert asked == [True]  # only the episode that was not told asked
+    assert offered == {None: FURNITURE_TOOLS, False: set(), True: FURNITURE_TOOLS}
