@@ -125,35 +125,47 @@ def _tree_cpu_s(root: int) -> float:
 
 
 def _thread_parts_s(root: int) -> dict[str, float]:
-    """The CPU seconds of the threads of process `root` (the harness) and its descendants (the
-    servers), by part: the harness's threads; a server's event loop (its main thread: the MCP stack,
-    the transport, the tool wiring); a server's other Python threads (the tool bodies, run on worker
-    threads); and ChromaDB's native threads (named tokio-* and sqlx-*)."""
-    stats: dict[int, int] = {}
+    """The CPU seconds of process `root` (the harness) and of its descendants (the servers), by part:
+    the harness; a server's event loop (its main thread: the MCP stack, the transport, the tool
+    wiring); a server's worker threads (the tool bodies: Python threads other than ChromaDB's); and
+    the rest of a server's CPU, ChromaDB's native threads (tokio-*, sqlx-*; made and ended with its
+    clients, so they are counted as the process's CPU less its live Python threads')."""
+    parents: dict[int, int] = {}
     for entry in os.listdir("/proc"):
         if entry.isdigit():
             with contextlib.suppress(OSError):
                 text = Path(f"/proc/{entry}/stat").read_text()
-                stats[int(entry)] = int(text[text.rindex(")") + 2 :].split()[1])
+                parents[int(entry)] = int(text[text.rindex(")") + 2 :].split()[1])
     tree, todo = [], [root]
     while todo:
         pid = todo.pop()
         tree.append(pid)
-        todo += [child for child, parent in stats.items() if parent == pid]
-    parts: dict[str, float] = {}
+        todo += [child for child, parent in parents.items() if parent == pid]
+    parts = {"harness": 0.0, "server_loop": 0.0, "server_tools": 0.0, "chroma": 0.0}
     for pid in tree:
-        with contextlib.suppress(OSError):
+        with contextlib.suppress(OSError):  # a process that ended meanwhile
+            total, python = _cpu_s(f"/proc/{pid}/stat"), {"server_loop": 0.0, "server_tools": 0.0}
+            if pid == root:
+                parts["harness"] += total
+                continue
             for tid in os.listdir(f"/proc/{pid}/task"):
-                text = Path(f"/proc/{pid}/task/{tid}/stat").read_text()
-                name, fields = text[text.index("(") + 1 : text.rindex(")")], text[text.rindex(")") + 2 :].split()
-                if pid == root:
-                    part = "harness"
-                elif name.startswith(("tokio", "sqlx")):
-                    part = "chroma"
-                else:
-                    part = "server_loop" if int(tid) == pid else "server_tools"
-                parts[part] = parts.get(part, 0.0) + (int(fields[11]) + int(fields[12])) / TICKS
+                with contextlib.suppress(OSError):
+                    name = Path(f"/proc/{pid}/task/{tid}/comm").read_text().strip()
+                    if not name.startswith(("tokio", "sqlx")):
+                        python["server_loop" if int(tid) == pid else "server_tools"] += _cpu_s(
+                            f"/proc/{pid}/task/{tid}/stat"
+                        )
+            for part, cpu in python.items():
+                parts[part] += cpu
+            parts["chroma"] += total - sum(python.values())
     return parts
+
+
+def _cpu_s(stat: str) -> float:
+    """utime + stime of a /proc stat file, in seconds."""
+    text = Path(stat).read_text()
+    fields = text[text.rindex(")") + 2 :].split()
+    return (int(fields[11]) + int(fields[12])) / TICKS
 
 
 def attempt_cpu_s(
