@@ -59,7 +59,7 @@ async def test_a_post_sends_httpx_headers_and_body_and_keeps_its_connection() ->
 
     async def echo(request: bytes, _: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
         seen.append(request)
-        writer.write(b"HTTP/1.1 200 OK\r\ncontent-type: application/json\r\ncontent-length: 12\r\n\r\n{\"ok\": true}")
+        writer.write(b'HTTP/1.1 200 OK\r\ncontent-type: application/json\r\ncontent-length: 12\r\n\r\n{"ok": true}')
 
     async with served(echo) as url, client(headers={"Authorization": "Bearer t"}) as c:
         for n in range(3):
