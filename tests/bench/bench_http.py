@@ -7,23 +7,27 @@ A real `robocog-server --transport http` process on a free loopback port:
 - connection reuse: the same calls through the SDK's client as it comes (a plain httpx2 client: the
   previous release) and through robocog's (`agent.client.connection`: answers read to their end, idle
   connections kept through a model's turn), alternating in rounds on one server: the TCP connections
-  each opened (httpcore's own debug log, on for both), the client's and the server's CPU per call, the
-  wall time, and the connections opened by calls after a pause longer than httpx's and uvicorn's 5 s;
+  each opened (counted at the event loop, where both HTTP stacks open them), the client's and the
+  server's CPU per call, the wall time, and the connections opened by calls after a pause longer than
+  httpx's and uvicorn's 5 s;
 - one JSON body per answer: robocog's client against a server started with `--json-response` (as the
   harness starts its fleets), the same calls' CPU and time.
 """
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
 import json
-import logging
 import os
 import statistics
 import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import anyio
 import httpx
@@ -92,15 +96,27 @@ async def _round_trips(url: str, token: str | None) -> list[float]:
     return times
 
 
-class _Connects(logging.Handler):
-    """Counts the TCP connections httpcore opens (its debug log says `connect_tcp.started`)."""
+class _Connects:
+    """Counts the TCP connections this process opens, whichever HTTP stack opens them: httpcore
+    (the SDK's client as it comes) and aiohttp (robocog's, over plain HTTP) both open theirs through
+    the event loop's `create_connection`."""
 
     def __init__(self) -> None:
-        super().__init__(logging.DEBUG)
         self.count = 0
 
-    def emit(self, record: logging.LogRecord) -> None:
-        self.count += record.getMessage().startswith("connect_tcp.started")
+    @contextlib.contextmanager
+    def counting(self) -> Iterator[None]:
+        real = asyncio.BaseEventLoop.create_connection
+
+        async def counted(loop: asyncio.BaseEventLoop, *args: Any, **kwargs: Any) -> Any:
+            self.count += 1
+            return await real(loop, *args, **kwargs)
+
+        asyncio.BaseEventLoop.create_connection = counted  # type: ignore[assignment, method-assign]
+        try:
+            yield
+        finally:
+            asyncio.BaseEventLoop.create_connection = real  # type: ignore[method-assign]
 
 
 def _cpu_s(pid: int) -> float:
@@ -113,12 +129,8 @@ async def _reuse(url: str, pid: int) -> dict[str, object]:
     from robocog.agent.client.connection import _http_transport
 
     connects = _Connects()
-    log = logging.getLogger("httpcore2")
-    log.addHandler(connects)
-    level = log.level
-    log.setLevel(logging.DEBUG)
     totals = {way: {"connections": 0, "client_cpu": 0.0, "server_cpu": 0.0, "wall": 0.0} for way in ("sdk", "robocog")}
-    try:
+    with connects.counting():
         async with (
             # The SDK's client as it comes, with robocog's timeouts (httpx's 5 s would end its GET stream).
             httpx2.AsyncClient(timeout=httpx2.Timeout(30.0, read=300.0)) as http,
@@ -144,9 +156,6 @@ async def _reuse(url: str, pid: int) -> dict[str, object]:
                     n = connects.count
                     await client.call_tool("look_around", {})
                     idle[way] += connects.count - n
-    finally:
-        log.removeHandler(connects)
-        log.setLevel(level)
     figures: dict[str, object] = {}
     for way, total in totals.items():
         key = f"http.reuse.{way}"
