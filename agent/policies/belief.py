@@ -1,14 +1,18 @@
 """What the scripted planner reads from the conversation: the episode's tool calls, its belief
 about the world, and the task's goals.
 
-Like a model, the planner is stateless: every turn it rebuilds all of this from the messages.
+Like a model, the planner is stateless: every turn it rebuilds all of this from the messages. What
+it reads of one message's text does not change from turn to turn, so that reading is remembered by
+the text (a bounded cache): a turn parses only the messages new since the last one.
 """
 
 from __future__ import annotations
 
+import functools
 import json
 import re
 from collections import Counter, deque
+from collections.abc import Hashable, Iterable
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -17,6 +21,7 @@ from robocog.agent.families.reading import Goal as Goal
 from robocog.agent.families.reading import Request as Request
 from robocog.agent.families.reading import clean
 from robocog.agent.policies import sightings
+from robocog.agent.policies.memo import Kept, frozen
 from robocog.agent.study_protocols import task_of
 
 UNGRASPABLE_NOTE = "Objects that cannot be grasped:"
@@ -75,15 +80,12 @@ class Belief:
 
     def hops_from(self, start: str) -> dict[str, int]:
         """Breadth-first distances on the map."""
-        dist = {start: 0}
-        queue = deque([start])
-        while queue:
-            node = queue.popleft()
-            for nxt in self.neighbours.get(node, []):
-                if nxt not in dist:
-                    dist[nxt] = dist[node] + 1
-                    queue.append(nxt)
-        return dist
+        return self.hop_table([start])[start]
+
+    def hop_table(self, starts: Iterable[str]) -> dict[str, dict[str, int]]:
+        """`hops_from` each of `starts` (a map's distances are remembered: `_hops`)."""
+        known = tuple((loc, tuple(near)) for loc, near in self.neighbours.items())
+        return {start: dict(_hops(known, start)) for start in starts}
 
     def free_positions(self, location: str) -> list[str]:
         return [p for p in self.positions.get(location, []) if self.occupant.get((location, p)) is None]
@@ -91,6 +93,38 @@ class Belief:
     def objects(self) -> list[str]:
         """Every object seen, the held one included."""
         return list(self.where) + ([self.holding] if self.holding and self.holding not in self.where else [])
+
+    def key(self) -> Hashable:
+        """Everything believed, as a hashable value (equal for beliefs alike in every field, in the
+        same order)."""
+        return (
+            self.location,
+            self.holding,
+            tuple((loc, tuple(near)) for loc, near in self.neighbours.items()),
+            tuple((loc, tuple(names)) for loc, names in self.positions.items()),
+            tuple(self.occupant.items()),
+            tuple(self.where.items()),
+            self.stale,
+            tuple(self.containers.items()),
+            tuple(self.closed),
+            tuple(self.seen),
+            tuple(self.expected.items()),
+        )
+
+
+@functools.lru_cache(maxsize=4096)
+def _hops(neighbours: tuple[tuple[str, tuple[str, ...]], ...], start: str) -> dict[str, int]:
+    """Breadth-first distances from `start` on a map (its locations' neighbours, in order)."""
+    near = dict(neighbours)
+    dist = {start: 0}
+    queue = deque([start])
+    while queue:
+        node = queue.popleft()
+        for nxt in near.get(node, ()):
+            if nxt not in dist:
+                dist[nxt] = dist[node] + 1
+                queue.append(nxt)
+    return dist
 
 
 @dataclass(frozen=True)
@@ -125,14 +159,34 @@ def as_dict(message: Any) -> dict[str, Any]:
     return dict(message)
 
 
-def _parse_json(content: Any) -> dict[str, Any] | None:
-    if content is None:
-        return None
+#: Texts whose reading is remembered (tool calls with their results, user messages): more than the
+#: episodes a study keeps in flight at once hold (when they are more, they are read again).
+READINGS_KEPT = 4096
+
+
+@functools.lru_cache(maxsize=READINGS_KEPT)
+def _past_call(name: str, arguments: str, result: str | None) -> PastCall:
+    """A tool call read from its name, the text of its arguments and that of its result (None: no
+    result). The same `PastCall` for the same texts: the planner only reads it (never changes it)."""
+    read = None if result is None else _parse_json(result)
+    if name == "look_around" and read is not None:  # its belief is read once too (`_looked`)
+        _LOOKS[id(read)] = (read, None)
+    return PastCall(name, _parse_json(arguments) or {}, read, read is None or read.get("status") == "failure")
+
+
+def _parse_json(text: str) -> dict[str, Any] | None:
+    """The JSON object a text holds, None when it holds none."""
     try:
-        value = json.loads(_plain(content))
+        value = json.loads(text)
     except json.JSONDecodeError:
         return None
     return value if isinstance(value, dict) else None
+
+
+@functools.lru_cache(maxsize=READINGS_KEPT)
+def _task_of(text: str) -> str:
+    """The task a user message's text gives (`robocog.agent.study_protocols.task_of`)."""
+    return task_of(text)
 
 
 def _plain(content: Any) -> str:
@@ -145,7 +199,7 @@ def _plain(content: Any) -> str:
 def read_history(messages: list[Any]) -> History:
     """The task, every tool call with its result, and the memories found, from the conversation."""
     msgs = [as_dict(m) for m in messages]
-    asked = [(i, task_of(_plain(m.get("content")))) for i, m in enumerate(msgs) if m.get("role") == "user"]
+    asked = [(i, _task_of(_plain(m.get("content")))) for i, m in enumerate(msgs) if m.get("role") == "user"]
     task = asked[-1][1] if asked else ""
     # The current task began at the first of the trailing user messages that carry it: a conversation
     # may hold earlier tasks (the paper's protocol runs T2 after T1 in one conversation).
@@ -164,13 +218,34 @@ def read_history(messages: list[Any]) -> History:
         for tc in m.get("tool_calls") or []:
             tc = as_dict(tc)
             fn = as_dict(tc.get("function") or {})
-            args = _parse_json(fn.get("arguments") or "{}") or {}
-            result = _parse_json(results.get(tc.get("id")))
-            is_error = result is None or result.get("status") == "failure"
-            calls.append(PastCall(str(fn.get("name")), args, result, is_error))
-            if fn.get("name") == "search_memory" and result:
-                memories.extend(result.get("results", []))
+            result = results.get(tc.get("id"))
+            text = None if result is None else _plain(result)
+            call = _past_call(str(fn.get("name")), _plain(fn.get("arguments") or "{}"), text)
+            calls.append(call)
+            if fn.get("name") == "search_memory" and call.result:
+                memories.extend(call.result.get("results", []))
     return History(task=task, calls=calls, memories=memories)
+
+
+#: The look_around results `_past_call` read, by id: the result (kept, so no other object has its id)
+#: and, once read, the belief it gives (`_looked`).
+_LOOKS: Kept[int, tuple[dict[str, Any], Belief | None]] = Kept(1024)
+
+
+def _looked(look: dict[str, Any]) -> Belief:
+    """`Belief.from_look(look)`: for a result of `_past_call` (shared, never changed), read once, as
+    the planner reads an episode's looks again every turn. Each call gets a belief of its own to change
+    (its lists of neighbours and positions are shared: they are replaced, never changed)."""
+    known = _LOOKS.get(id(look))
+    if known is None or known[0] is not look:  # not a result read here
+        return Belief.from_look(look)
+    read = known[1]
+    if read is None:
+        read = Belief.from_look(look)
+        _LOOKS[id(look)] = (look, read)
+    belief = read.copy()
+    belief.neighbours, belief.positions = dict(read.neighbours), dict(read.positions)
+    return belief
 
 
 def current_belief(history: History) -> tuple[Belief | None, Belief | None]:
@@ -181,7 +256,8 @@ def current_belief(history: History) -> tuple[Belief | None, Belief | None]:
     for call in history.calls:  # them free, but they stay beyond the arm for the rest of the episode
         name, args, result, is_error = call.name, call.arguments, call.result, call.is_error
         if name == "look_around" and result and not is_error:
-            belief = Belief.from_look(result) if belief is None else sightings.merge(belief, result)
+            seen = _looked(result)
+            belief = seen if belief is None else sightings.merge(belief, result, seen)
             first = first or belief.copy()
             continue
         if belief is None or result is None:
@@ -260,13 +336,33 @@ def understand(
 
     The task families' prompt readers are asked in their registered order (put back, swap, arrange,
     then transport: `robocog.agent.families.registry`); the first whose pattern matches the cleaned
-    task reads it, and its answer stands."""
+    task reads it, and its answer stands.
+
+    The answer depends on nothing else, and the planner asks again every turn: the latest answers are
+    remembered (the same `Request`, which nobody changes)."""
+    key = (task, first.key(), frozenset(avoid), frozen(memories or []))
+    try:
+        known = _UNDERSTOOD.get(key, _UNREAD)
+    except TypeError:  # something believed or remembered that is no key: read afresh
+        return _understand(task, first, avoid, memories or [])
+    if known is not _UNREAD:
+        return known
+    request = _UNDERSTOOD[key] = _understand(task, first, avoid, memories or [])
+    return request
+
+
+#: Tasks understood, by all that their reading depends on (`understand`).
+_UNDERSTOOD: Kept[Hashable, Request | None] = Kept(256)
+_UNREAD = Request("", {})
+
+
+def _understand(task: str, first: Belief, avoid: set[str], memories: list[dict[str, Any]]) -> Request | None:
     text = clean(task)
     found = next(((r, m) for r in prompt_readers() if (m := r.pattern.match(text)) is not None), None)
     if found is None:
         return None
     reader, match = found
-    request = reader.read(match, first, memories or [])
+    request = reader.read(match, first, memories)
     if request is None or request.problem or request.all_items:
         if request is not None and request.all_items:
             request = replace(request, goals={o: g for o, g in request.goals.items() if o not in avoid})

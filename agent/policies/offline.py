@@ -24,7 +24,7 @@ import json
 import math
 import random
 from dataclasses import dataclass, field
-from functools import cache
+from functools import cache, lru_cache
 from pathlib import Path
 from typing import Any
 
@@ -112,8 +112,28 @@ def response(model: str, message: dict[str, Any], prompt_chars: int, cost: float
     )
 
 
+#: `json.dumps(..., default=str)`'s encoder, made once.
+_ENCODER = json.JSONEncoder(default=str)
+
+
 def prompt_chars(messages: list[Any]) -> int:
-    return sum(len(json.dumps(m, default=str)) for m in messages)
+    """The characters of the messages, each written as JSON (`json.dumps(m, default=str)`), summed.
+    The conversation grows by a few messages a turn: a message of text fields only is measured once
+    (`_text_chars`), and the others are encoded at once (a list's JSON is its items' joined by ", "
+    within brackets)."""
+    total, rest = 0, []
+    for m in messages:
+        if type(m) is dict and all(type(k) is str and (v is None or type(v) is str) for k, v in m.items()):
+            total += _text_chars(tuple(m.items()))
+        else:
+            rest.append(m)
+    return total + (len(_ENCODER.encode(rest)) - 2 * len(rest) if rest else 0)
+
+
+@lru_cache(maxsize=4096)
+def _text_chars(fields: tuple[tuple[str, str | None], ...]) -> int:
+    """The length of a message of these fields (names and texts, in order) as JSON."""
+    return len(_ENCODER.encode(dict(fields)))
 
 
 # --- the scripted models ---------------------------------------------------------------------------
@@ -168,8 +188,11 @@ def scripted_turn(model: str, messages: list[Any], params: dict[str, Any]) -> tu
     seed = params.get("seed")
     p = float(params.get("p", (params.get("extra_body") or {}).get("p", 0.3)))
     latency_s, jitter_s = seconds(params, "latency_s", model), seconds(params, "jitter_s", model)
-    assistant = [m for m in map(as_dict, messages) if m.get("role") == "assistant"]
-    calls_so_far = sum(len(m.get("tool_calls") or []) for m in assistant)
+    turns = calls_so_far = 0  # the assistant's turns so far, and the tool calls they made
+    for m in map(as_dict, messages):
+        if m.get("role") == "assistant":
+            turns += 1
+            calls_so_far += len(m.get("tool_calls") or [])
     if is_variant(variant):
         call = decide(messages, variant, seed=seed, p=p)
     else:
@@ -178,7 +201,7 @@ def scripted_turn(model: str, messages: list[Any], params: dict[str, Any]) -> tu
         except (TypeError, ValueError) as exc:
             raise OfflineModelError(f"{model}: {exc}") from None
         call = faulty.decide(messages, seed, class_rates)
-    return call_message(call, calls_so_far + 1), turn_delay(latency_s, jitter_s, seed, len(assistant) + 1)
+    return call_message(call, calls_so_far + 1), turn_delay(latency_s, jitter_s, seed, turns + 1)
 
 
 # --- replay ----------------------------------------------------------------------------------------

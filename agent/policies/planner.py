@@ -190,6 +190,8 @@ class Planner:
         action = self.act(step)
         if action is None:
             return self.conclude(step)
+        if action.name != "move_to":  # only a drive takes a detour
+            return action
         return recovery.detour(action, step.belief, recovery.read_setbacks(step.calls))
 
     def prepare(self, history: History) -> Call | Episode:

@@ -17,6 +17,7 @@ module reads the setbacks of the episode (`read_setbacks`) and tells the planner
 
 from __future__ import annotations
 
+import functools
 import itertools
 import re
 from collections import deque
@@ -64,6 +65,13 @@ def _message(call: PastCall) -> str:
     return str((call.result or {}).get("message", ""))
 
 
+@functools.lru_cache(maxsize=4096)
+def _news(text: str) -> tuple[tuple[tuple[str, str], ...], tuple[tuple[str, str], ...]]:
+    """The corridors a result's text says are blocked, and those it says are clear again (the planner
+    reads every result again each turn: the answers are remembered)."""
+    return tuple(_BLOCK_NEWS.findall(text)), tuple(_CLEAR_NEWS.findall(text))
+
+
 def read_setbacks(calls: list[PastCall]) -> Setbacks:
     """The episode's setbacks, from its tool results in order."""
     blocked: set[Corridor] = set()
@@ -74,9 +82,10 @@ def read_setbacks(calls: list[PastCall]) -> Setbacks:
     missed_places: dict[tuple[str, str, str], int] = {}
     for call in calls:
         text, result = _message(call), call.result or {}
-        for a, b in _BLOCK_NEWS.findall(text):
+        blocks, clears = _news(text)
+        for a, b in blocks:
             blocked.add(frozenset((a, b)))
-        for a, b in _CLEAR_NEWS.findall(text):
+        for a, b in clears:
             blocked.discard(frozenset((a, b)))
         if call.name == "move_to":
             stop = _BLOCKED.search(text) if result.get("status") == "failure" else None

@@ -16,9 +16,10 @@ if TYPE_CHECKING:
     from robocog.agent.policies.belief import Belief
 
 
-def merge(old: Belief, look: dict[str, Any]) -> Belief:
-    """The belief after `look` (a look_around result), from the belief `old` before it."""
-    new = type(old).from_look(look)
+def merge(old: Belief, look: dict[str, Any], new: Belief | None = None) -> Belief:
+    """The belief after `look` (a look_around result), from the belief `old` before it. `new`: what
+    `look` shows (`Belief.from_look(look)`, a belief of its own), when it has been read already."""
+    new = type(old).from_look(look) if new is None else new
     if look.get("observed"):  # only part of the house: the rest is as it was last seen
         new = _over(old, new)
     _keep_shut_in(old, new)

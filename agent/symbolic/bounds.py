@@ -18,36 +18,43 @@ only makes the bound lower, so it stays admissible.
 from __future__ import annotations
 
 import functools
-from collections import Counter
 from collections.abc import Iterable
 
 
 def carrying_drives(edges: Iterable[tuple[str, str]], here: str) -> int:
     """The fewest drives that carry one object along each edge (from, to), from the robot at `here`.
-    (A search asks for few distinct edge sets over many states: the answers are cached.)"""
-    return _carrying_drives(tuple(sorted((a, b) for a, b in edges if a != b)), here)
+    (A search asks for few distinct edge sets over many states: the answers are cached, per edge set
+    whatever the robot's location.)"""
+    return drives_along(tuple(sorted((a, b) for a, b in edges if a != b)), here)
+
+
+def drives_along(moves: tuple[tuple[str, str], ...], here: str) -> int:
+    """`carrying_drives` for edges already sorted, none from a location to itself."""
+    if not moves:
+        return 0
+    drives, sources = _carrying_drives(moves)
+    return drives if here in sources else drives + 1
 
 
 @functools.lru_cache(maxsize=65_536)
-def _carrying_drives(moves: tuple[tuple[str, str], ...], here: str) -> int:
-    if not moves:
-        return 0
+def _carrying_drives(moves: tuple[tuple[str, str], ...]) -> tuple[int, frozenset[str]]:
+    """The drives for `moves` from a location where one of them begins, and where they begin."""
     parent: dict[str, str] = {}
 
     def root(v: str) -> str:
-        while parent.setdefault(v, v) != v:
-            parent[v] = parent[parent[v]]
+        while (up := parent.setdefault(v, v)) != v:
+            parent[v] = parent[up]
             v = parent[v]
         return v
 
-    surplus: Counter[str] = Counter()
+    surplus: dict[str, int] = {}  # per location, the edges that leave it less those that enter it
     for a, b in moves:
         parent[root(a)] = root(b)
-        surplus[a] += 1
-        surplus[b] -= 1
-    trails: Counter[str] = Counter()
-    for v in parent:
-        trails[root(v)] += max(0, surplus[v])
-    count = sum(max(1, trails[r]) for r in {root(v) for v in parent})
-    starts_here = any(a == here for a, _ in moves)
-    return len(moves) + count - 1 + (0 if starts_here else 1)
+        surplus[a] = surplus.get(a, 0) + 1
+        surplus[b] = surplus.get(b, 0) - 1
+    trails: dict[str, int] = {}  # per component (by its root), the trails that must begin in it
+    for v, more in surplus.items():
+        r = root(v)
+        trails[r] = trails.get(r, 0) + (more if more > 0 else 0)
+    count = sum(n if n > 1 else 1 for n in trails.values())
+    return len(moves) + count - 1, frozenset(a for a, _ in moves)

@@ -23,11 +23,12 @@ conditions (`robocog.shared.tasks.rests_at`: an at_location or at_position condi
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, Mapping, Sequence, Set
+import functools
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence, Set
 from dataclasses import dataclass
 from typing import Any, Protocol
 
-from robocog.agent.symbolic.bounds import carrying_drives
+from robocog.agent.symbolic.bounds import drives_along
 from robocog.agent.symbolic.search import Cost, Problem, astar
 from robocog.shared.tasks import rests_at
 
@@ -45,6 +46,8 @@ State = tuple[str, int | None, tuple[Spot, ...], frozenset[str]]
 #: The position believed inside a closed container whose positions were never seen.
 UNSEEN = "(inside)"
 Action = tuple[str, dict[str, str]]  # (tool, arguments): move_to, grab, place or open
+#: What the estimate of a state counts whatever the robot's location (`Rearrangement._spots_estimate`).
+_SpotsEstimate = tuple[int, frozenset[str], tuple[tuple[str, str], ...], str | None]
 
 
 class Target(Protocol):
@@ -85,6 +88,8 @@ class Believed(Protocol):
     def expected(self) -> Mapping[str, str]: ...
 
     def hops_from(self, start: str) -> dict[str, int]: ...
+
+    def hop_table(self, starts: Iterable[str]) -> dict[str, dict[str, int]]: ...
 
 
 def satisfied(spot: Spot | None, goal: Target) -> bool:
@@ -132,47 +137,79 @@ class Rearrangement:
         objects with goals elsewhere needs (`robocog.agent.symbolic.bounds`); hops: the drive to the
         farthest of those locations."""
         here, held, spots, _ = state
+        known = self._estimates.get((held, spots))
+        if known is None:  # the search reaches the same spots from many locations (one per drive)
+            known = self._estimates[held, spots] = self._spots_estimate(held, spots)
+        actions, visit, moves, target = known
+        if target is not None and target != here:  # the held object, carried from here
+            moves = tuple(sorted((*moves, (here, target))))
+        hops = self.hops[here]
+        drives = max(drives_along(moves, here), len(visit) - (here in visit))
+        return actions + drives, max([hops.get(loc, 0) for loc in visit], default=0)
+
+    def _spots_estimate(self, held: int | None, spots: tuple[Spot, ...]) -> _SpotsEstimate:
+        """What `estimate` counts whatever the robot's location: the actions, the locations to visit,
+        the objects to carry but the held one (as `robocog.agent.symbolic.bounds.drives_along` takes
+        them) and where the held object must go (None: held is None, or it has no goal)."""
         named = self.named
-        actions, visit = 2 * sum(self._to_clear(state, loc) for loc in self.anywhere), set()
+        actions = 2 * sum(self._to_clear(held, spots, loc) for loc in self.anywhere)
+        visit: set[str] = set()
         edges: list[tuple[str, str]] = []  # (where it lies, where it must go) per object to carry
-        for i, (spot, goal) in enumerate(zip(spots, self.goals, strict=True)):
+        target: str | None = None
+        for i, (spot, goal) in enumerate(zip(spots, self._targets, strict=True)):
             if held == i:
                 actions += 1
                 if goal is not None:
-                    visit.add(goal.location)
-                    edges.append((here, goal.location))
+                    visit.add(goal[0])
+                    target = goal[0]
             elif goal is None:
                 if spot in named:
                     actions += 2
                     visit.add(spot[0])
-            elif not satisfied(spot, goal):
+            elif not rests_at(spot, *goal):  # `satisfied`
                 actions += 2
-                visit |= {spot[0], goal.location}
-                edges.append((spot[0], goal.location))
-        hops = self.hops[here]
-        moves = max(carrying_drives(edges, here), len(visit - {here}))
-        return actions + moves, max((hops.get(loc, 0) for loc in visit), default=0)
+                visit.add(spot[0])
+                visit.add(goal[0])
+                edges.append((spot[0], goal[0]))
+        return actions, frozenset(visit), tuple(sorted(e for e in edges if e[0] != e[1])), target
 
-    def _to_clear(self, state: State, location: str) -> int:
+    @functools.cached_property
+    def _estimates(self) -> dict[tuple[int | None, tuple[Spot, ...]], _SpotsEstimate]:
+        """`_spots_estimate` by what it reads (a problem is searched once: this lives as long as the
+        search)."""
+        return {}
+
+    @functools.cached_property
+    def _targets(self) -> tuple[tuple[str, str | None] | None, ...]:
+        """Per mover, its goal's location and position (None: no goal)."""
+        return tuple(None if g is None else (g.location, g.position) for g in self.goals)
+
+    @functools.cached_property
+    def _arrivals(self) -> dict[str, tuple[int, ...]]:
+        """Per location of goals "anywhere" there, the movers with such a goal."""
+        return {
+            loc: tuple(i for i, g in enumerate(self.goals) if g is not None and g.location == loc and not g.position)
+            for loc in self.anywhere
+        }
+
+    @functools.cached_property
+    def _room(self) -> dict[str, tuple[Spot, ...]]:
+        """Per location of goals "anywhere" there, its positions that no goal names and nothing fixed
+        holds."""
+        taken = self.named | self.fixed
+        return {
+            loc: tuple((loc, p) for p in self.positions.get(loc, []) if (loc, p) not in taken) for loc in self.anywhere
+        }
+
+    def _to_clear(self, held: int | None, spots: tuple[Spot, ...], location: str) -> int:
         """How many objects with no goal must at least leave `location` to make room for the objects
         still to arrive "anywhere" there."""
-        _, held, spots, _ = state
-        arriving = sum(
-            1
-            for i, (spot, goal) in enumerate(zip(spots, self.goals, strict=True))
-            if goal is not None
-            and goal.location == location
-            and not goal.position
-            and (held == i or spot[0] != location)
-        )
+        arriving = sum(1 for i in self._arrivals[location] if held == i or spots[i][0] != location)
         if not arriving:
             return 0
-        by_spot = {spot: goal for spot, goal in zip(spots, self.goals, strict=True)}
+        by_spot = dict(zip(spots, self.goals, strict=True))
         room = 0
-        for position in self.positions.get(location, []):
-            spot = (location, position)
-            if spot in self.named or spot in self.fixed:
-                continue
+        for spot in self._room[location]:
             if spot not in by_spot:  # a free position
                 room += 1
                 continue
@@ -183,7 +220,8 @@ class Rearrangement:
     def successors(self, state: State) -> Iterator[tuple[Action, State, Cost]]:
         """(action, next state, (1, map hops driven)) for each action worth considering."""
         here, held, spots, opened = state
-        shut = bool(set(self.boxes.get(here, ())) - opened)  # the positions here are out of reach
+        boxes = self.boxes.get(here, ())
+        shut = any(box not in opened for box in boxes)  # the positions here are out of reach
         if held is None and not shut:
             for i, spot in enumerate(spots):
                 if spot != HELD and spot[0] == here:
@@ -196,13 +234,14 @@ class Rearrangement:
                     put = (*spots[:held], (here, position), *spots[held + 1 :])
                     yield ("place", {"location": here, "position": position}), (here, None, put, opened), (1, 0)
         if held is None:
-            for box in self.boxes.get(here, ()):
+            for box in boxes:
                 if box not in opened:
                     yield ("open", {"furniture": box}), (here, held, spots, opened | {box}), (1, 0)
+        hops = self.hops[here]
         for stop in self.stops:
             if stop != here:
                 moved = (stop, held, spots, opened)
-                yield ("move_to", {"location": stop}), moved, (1, self.hops[here].get(stop, NO_PATH_HOPS))
+                yield ("move_to", {"location": stop}), moved, (1, hops.get(stop, NO_PATH_HOPS))
 
 
 def rearrangement(belief: Believed, goals: Mapping[str, Target]) -> tuple[Rearrangement, State] | None:
@@ -230,7 +269,7 @@ def rearrangement(belief: Believed, goals: Mapping[str, Target]) -> tuple[Rearra
     spots = tuple(HELD if o == belief.holding else where[o] for o in movers)
     stops = {loc for loc, names in positions.items() if names} | {s[0] for s in spots if s[0]}
     stops |= {g.location for g in goals.values()}
-    everywhere = {loc: belief.hops_from(loc) for loc in stops | {belief.location}}
+    everywhere = belief.hop_table(stops | {belief.location})
     boxes: dict[str, tuple[str, ...]] = {}
     for box, location in sorted(belief.containers.items()):
         boxes[location] = (*boxes.get(location, ()), box)
