@@ -10,13 +10,14 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, cast
+from typing import TYPE_CHECKING, Literal, cast
 
 from robocog.agent.analysis.figure_layout import TAB10, legend_below, new_figure
 from robocog.agent.analysis.scores import FamilyRow, families, models
 
 if TYPE_CHECKING:
     from matplotlib.artist import Artist
+    from matplotlib.figure import Figure
     from matplotlib.projections.polar import PolarAxes
 
 
@@ -25,11 +26,29 @@ CAPABILITY_AXES = 3
 CAPABILITY_FILE = "capability.png"
 
 
+def side_of(angle: float) -> Literal["left", "center", "right"]:
+    """How an axis label at `angle` (clockwise from the top) is aligned: away from the circle on the
+    sides (a long name centred there would reach back over the axis's point at 100%), centred at the
+    top and bottom."""
+    across = math.sin(angle)
+    return "left" if across > 0.1 else "right" if across < -0.1 else "center"
+
+
 def draw_capability(scores: Sequence[FamilyRow], out: Path, *, group: str = "family") -> str | None:
     """The capability profile: a radar with one axis per family, or per capability tag when the rows
     carry tags (`group="capability"`, `robocog.agent.analysis.scores.capability_scores`): its success
     rate (errored attempts counted as failures; on an infeasible instance the honest failure) and one
     line per model. Returns the file name, or None with fewer than `CAPABILITY_AXES` axes."""
+    fig = capability_radar(scores, group=group)
+    if fig is None:
+        return None
+    path = out / CAPABILITY_FILE
+    fig.savefig(path)
+    return path.name
+
+
+def capability_radar(scores: Sequence[FamilyRow], *, group: str = "family") -> Figure | None:
+    """The figure `draw_capability` saves (None with fewer than `CAPABILITY_AXES` axes)."""
     names = families(scores)
     if len(names) < CAPABILITY_AXES:
         return None
@@ -55,6 +74,8 @@ def draw_capability(scores: Sequence[FamilyRow], out: Path, *, group: str = "fam
         ticks.append(f"{f}\n(n = {n})")
     ax.set_xticks(angles, ticks, fontsize=8)
     ax.tick_params(axis="x", pad=12)  # the family names clear of the rim
+    for label, angle in zip(ax.get_xticklabels(), angles, strict=True):
+        label.set_horizontalalignment(side_of(angle))
     ax.set_ylim(0, 1)
     ax.set_yticks([0.25, 0.5, 0.75, 1.0], ["25%", "50%", "75%", "100%"], fontsize=7, color="grey")
     ax.set_rlabel_position(180 / len(names))  # between the first two axes
@@ -65,6 +86,4 @@ def draw_capability(scores: Sequence[FamilyRow], out: Path, *, group: str = "fam
         "every attempt counted, errored ones as failures; n = attempts per model",
         fontsize=10,
     )
-    path = out / CAPABILITY_FILE
-    fig.savefig(path)
-    return path.name
+    return fig
