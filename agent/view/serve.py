@@ -25,7 +25,7 @@ from starlette.responses import FileResponse, JSONResponse, Response
 from starlette.routing import Mount, Route
 from starlette.staticfiles import StaticFiles
 
-from robocog.shared.evaluation import AttemptRow
+from robocog.shared.evaluation import AttemptRow, achieved
 from robocog.shared.web import LOOPBACK_HOSTS, VIEWER_STATIC
 
 HOST = "127.0.0.1"
@@ -61,6 +61,8 @@ def attempt_json(index: int, row: AttemptRow, results_dir: Path) -> dict[str, An
         "outcome": row.outcome,
         "believed_success": row.believed_success,
         "true_success": row.true_success,
+        "feasible": row.feasible,
+        "achieved": achieved(row),  # the request carried out: never on an infeasible instance
         "agreement": row.agreement,
         "tool_calls": row.tool_calls,
         "invocations": row.invocations,

@@ -101,6 +101,10 @@
       const outcome = el("td"); outcome.append(tag(a.outcome)); tr.append(outcome);
       const b = el("td"); b.append(belief(a)); tr.append(b);
       const t = el("td"); t.append(tag(a.true_success ? "success" : "failure")); tr.append(t);
+      const done = el("td");
+      if (a.feasible === false) done.append(tag("infeasible", "infeasible"));
+      else done.append(tag(a.achieved ? "success" : "failure", a.achieved ? "yes" : "no"));
+      tr.append(done);
       tr.append(el("td", null, String(a.tool_calls)));
       tr.append(el("td", null, a.has_trace ? "open ›" : a.trace ? "missing" : "–"));
       tr.title = a.error || a.reason || "";

@@ -119,6 +119,8 @@ def study_with_a_trace(folder: Path) -> Path:
     ]
     (traces / "iter-0-T1.jsonl").write_text("".join(dump_event(e) + "\n" for e in events) + "not json\n")
     rows[0]["trace"] = "results.traces/alpha/trial-0/iter-0-T1.jsonl"
+    # the last attempt an infeasible instance's honest failure: a success, no request achieved
+    rows[-1].update(feasible=False, true_success=True, believed_success=False)
     rows[1]["trace"] = "../outside.jsonl"  # never read: outside the results file's folder
     results = folder / "results.jsonl"
     results.write_text("".join(json.dumps(r) + "\n" for r in rows))
@@ -149,6 +151,11 @@ async def test_results_viewer_lists_the_attempts_and_opens_a_trace(tmp_path: Pat
                 await rows.count()
             )
             await page.select_option("#f-truth", "")
+            achieved = await page.locator("#attempts tbody tr td:nth-child(9)").all_text_contents()
+            truth = await page.locator("#attempts tbody tr td:nth-child(8)").all_text_contents()
+            assert achieved[-1] == "infeasible" and truth[-1] == "success"
+            assert [a == "yes" for a in achieved[:-1]] == [t == "success" for t in truth[:-1]]
+            assert await page.locator("#attempts thead th:nth-child(9)").text_content() == "achieved"
 
             await rows.first.click()
             steps = page.locator("#steps li")
