@@ -16,9 +16,8 @@ import tempfile
 from collections.abc import Sequence
 from typing import Literal, cast
 
-import anyio
 from inspect_ai import Epochs, Task, task
-from inspect_ai.agent import AgentState, as_solver
+from inspect_ai.agent import AgentState
 from inspect_ai.dataset import Sample
 from inspect_ai.model import ChatMessage, ChatMessageUser
 from inspect_ai.scorer import (
@@ -48,6 +47,7 @@ from robocog.inspect._tasks import (
     VERDICT_KEY,
     believed_status,
     controls_of,
+    judged_episode,
     robocog_server,
     robot_agent,
     verdict_score,
@@ -170,14 +170,8 @@ def suite_agent(
                     if pre_id is not None and state.store.get(VERDICT_KEY) is None:  # a limit cut it short
                         why = f"a limit cut its earlier task {pre_id} short, so it was not run"
                         state.store.set(VERDICT_KEY, {"task_id": instance_id, "success": False, "reason": why})
-                await controls.begin_task(instance_id, keep_scratchpad=False)
                 agent = robot_agent(server, state.input_text, max_invocations, offered)
-                try:
-                    state = await as_solver(agent)(state, generate)
-                finally:
-                    # The verdict even when a limit cut the episode short (a time limit cancels).
-                    with anyio.CancelScope(shield=True):
-                        state.store.set(VERDICT_KEY, (await controls.check_task(instance_id)).model_dump())
+                state = await judged_episode(state, generate, controls, instance_id, agent)
         finally:
             shutil.rmtree(data_dir, ignore_errors=True)
         return state

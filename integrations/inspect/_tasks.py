@@ -33,7 +33,7 @@ from inspect_ai import Epochs, Task, task
 from inspect_ai.agent import Agent, AgentPrompt, AgentState, as_solver, react
 from inspect_ai.approval import Approval, ApprovalPolicy, Approver, approver
 from inspect_ai.dataset import Sample
-from inspect_ai.model import ChatMessage, ChatMessageAssistant, ChatMessageTool, ContentText
+from inspect_ai.model import ChatMessage, ChatMessageAssistant
 from inspect_ai.scorer import Metric, Score, Scorer, Target, accuracy, mean, mean_score, pass_k, scorer, stderr
 from inspect_ai.solver import Generate, Solver, TaskState, solver
 from inspect_ai.tool import (
@@ -50,6 +50,8 @@ from inspect_ai.tool import (
 
 from robocog.agent.policies.planner import decide
 from robocog.agent.study_protocols import PROTOCOLS
+from robocog.inspect._transcript import believed_status as believed_status  # the package's, from here
+from robocog.inspect._transcript import ended, text_of
 from robocog.shared.controls import EvalControls
 from robocog.shared.protocol import PAPER_TOOLS
 from robocog.shared.tasks import TaskSpec, load_tasks
@@ -115,37 +117,6 @@ def robocog_server(data_dir: str | Path, extra_args: Sequence[str] = ()) -> MCPS
         args=["--profile", "eval", "--data-dir", str(data_dir), *extra_args],
         env={"ANONYMIZED_TELEMETRY": "False"},
     )
-
-
-# --- reading the transcript ------------------------------------------------------------------------
-
-
-def text_of(result: Any) -> str:
-    """A tool result (string or content list) as text."""
-    if isinstance(result, str):
-        return result
-    if isinstance(result, list):
-        return "\n".join(item.text for item in result if isinstance(item, ContentText))
-    return str(result)
-
-
-def believed_status(messages: Sequence[ChatMessage]) -> bool | None:
-    """end_task's status from the first end_task call that ended the episode (its result no error):
-    True for 'success', False for 'failure', None when the episode was never ended."""
-    results = {m.tool_call_id: m for m in messages if isinstance(m, ChatMessageTool)}
-    for message in messages:
-        if not isinstance(message, ChatMessageAssistant):
-            continue
-        for call in message.tool_calls or []:
-            result = results.get(call.id)
-            if call.function == "end_task" and result is not None and result.error is None:
-                return call.arguments.get("status") == "success"
-    return None
-
-
-def ended(messages: Sequence[ChatMessage]) -> bool:
-    """Whether an end_task call ended the episode."""
-    return any(m.function == "end_task" and m.error is None for m in messages if isinstance(m, ChatMessageTool))
 
 
 # --- the agent's loop, as react() hooks --------------------------------------------------------------
@@ -228,6 +199,21 @@ async def play_planner(tools: dict[str, Tool], task_id: str, prompt: str, max_ca
         raise RuntimeError(f"setting up: the planner did not complete {task_id}: {verdict.reason}")
 
 
+async def judged_episode(
+    state: TaskState, generate: Generate, controls: EvalControls, task_id: str, agent: Agent
+) -> TaskState:
+    """`task_id` begun, `agent` run as the sample's solver, and check_task's verdict kept in the store
+    for the scorer: even when a limit cut the episode short (a time limit cancels: the verdict is
+    asked shielded from it)."""
+    await controls.begin_task(task_id, keep_scratchpad=False)
+    try:
+        state = await as_solver(agent)(state, generate)
+    finally:
+        with anyio.CancelScope(shield=True):
+            state.store.set(VERDICT_KEY, (await controls.check_task(task_id)).model_dump())
+    return state
+
+
 # --- solver, scorer, tasks ---------------------------------------------------------------------------
 
 
@@ -275,14 +261,8 @@ def robocog_agent(
                 for required in specs[task_id].requires:
                     await play_planner(tools, required, specs[required].prompt)
                     state.store.set(SETUP_KEY, [*state.store.get(SETUP_KEY, []), required])
-                await controls.begin_task(task_id, keep_scratchpad=False)
                 agent = robot_agent(server, specs[task_id].prompt, max_invocations)
-                try:
-                    state = await as_solver(agent)(state, generate)
-                finally:
-                    # The verdict even when a limit cut the episode short (a time limit cancels).
-                    with anyio.CancelScope(shield=True):
-                        state.store.set(VERDICT_KEY, (await controls.check_task(task_id)).model_dump())
+                state = await judged_episode(state, generate, controls, task_id, agent)
         finally:
             shutil.rmtree(data_dir, ignore_errors=True)
         return state
