@@ -54,7 +54,7 @@ EXTRA = 10
 POLL_S = 0.002
 TICKS = os.sysconf("SC_CLK_TCK")
 #: Rounds, each measuring every install's marginal CPU with the physics at the time (see `measure`).
-ROUNDS = 3
+ROUNDS = 6
 ENV = installed_env()
 
 
@@ -229,7 +229,8 @@ def attempt_cpu_s(
 def measure(here: Path, against: Path | None, extra: int = EXTRA) -> dict[str, Any]:
     """Each round measures each install's attempt on stdio and on a fleet, alternately, each against
     the physics-only CPU measured at the same moments (this machine's speed drifts by a third within
-    minutes and switches between two speeds for seconds at a time); the figures are the rounds' means."""
+    minutes and switches between two speeds for seconds at a time); the figures are the rounds' medians
+    (a round caught by a switch moves a mean by a tenth)."""
     installs = [("", here)] + ([("against.", against)] if against is not None else [])
     physics: list[float] = []
     attempts: dict[str, list[float]] = {}
@@ -245,16 +246,16 @@ def measure(here: Path, against: Path | None, extra: int = EXTRA) -> dict[str, A
                 for part, cpu in by_part.items():
                     parts.setdefault(f"{prefix}{name}", {}).setdefault(part, []).append(cpu)
     out: dict[str, Any] = {
-        "overhead.physics_cpu_s": round(statistics.mean(physics), 3),
+        "overhead.physics_cpu_s": round(statistics.median(physics), 3),
         "overhead.physics_cpu_s_runs": [round(v, 3) for v in physics],
     }
     for key, values in attempts.items():
-        out[f"overhead.{key}.attempt_cpu_s"] = round(statistics.mean(values), 3)
+        out[f"overhead.{key}.attempt_cpu_s"] = round(statistics.median(values), 3)
         out[f"overhead.{key}.attempt_cpu_s_runs"] = [round(v, 3) for v in values]
-        out[f"overhead.{key}.ratio"] = round(statistics.mean(ratios[key]), 2)
+        out[f"overhead.{key}.ratio"] = round(statistics.median(ratios[key]), 2)
         out[f"overhead.{key}.ratio_runs"] = [round(v, 2) for v in ratios[key]]
         for part, cpus in parts[key].items():  # where the attempt's CPU went (the tool bodies hold the physics)
-            out[f"overhead.{key}.part.{part}_ms"] = round(statistics.mean(cpus) * 1000, 1)
+            out[f"overhead.{key}.part.{part}_ms"] = round(statistics.median(cpus) * 1000, 1)
     out["overhead.target_ratio"] = 1.5
     out["overhead.physical_actions"] = len(actions)
     return out | unit_breakdown(actions)

@@ -29,7 +29,7 @@ TARGETS = {
     "server.target_t1_over_stdio_s": 0.4,
 }
 #: Alternating rounds of both installs when another is measured too (`run`).
-AGAINST_ROUNDS = 3
+AGAINST_ROUNDS = 5
 T1_RUNS = 7
 
 
