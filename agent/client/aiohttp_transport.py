@@ -29,6 +29,25 @@ from yarl import URL
 _COMPUTED = frozenset({"content-length", "transfer-encoding"})
 
 
+def pooled_session(keepalive_s: float, opened: Callable[[], None]) -> aiohttp.ClientSession:
+    """An aiohttp session whose pool keeps connections alive for `keepalive_s`, calling `opened` for
+    every TCP connection it opens. It sends only the headers it is given (no `User-Agent: aiohttp`, no
+    `Accept-Encoding`), keeps no cookies and decompresses nothing."""
+
+    async def counted(*_: object) -> None:
+        opened()
+
+    tracing = aiohttp.TraceConfig()
+    tracing.on_connection_create_end.append(counted)
+    return aiohttp.ClientSession(
+        connector=aiohttp.TCPConnector(limit=0, keepalive_timeout=keepalive_s),
+        cookie_jar=aiohttp.DummyCookieJar(),
+        auto_decompress=False,
+        skip_auto_headers=("User-Agent", "Accept", "Accept-Encoding", "Content-Type"),
+        trace_configs=[tracing],
+    )
+
+
 class AiohttpTransport(httpx2.AsyncBaseTransport):
     """httpx requests sent by one aiohttp session (its pool keeps connections alive for
     `keepalive_s`); the session is made on the first request, in the event loop that sends it."""
@@ -42,18 +61,10 @@ class AiohttpTransport(httpx2.AsyncBaseTransport):
     def _open(self) -> aiohttp.ClientSession:
         if self._session is None:
 
-            async def opened(*_: object) -> None:
+            def opened() -> None:
                 self.connections_opened += 1
 
-            tracing = aiohttp.TraceConfig()
-            tracing.on_connection_create_end.append(opened)
-            self._session = aiohttp.ClientSession(
-                connector=aiohttp.TCPConnector(limit=0, keepalive_timeout=self._keepalive_s),
-                cookie_jar=aiohttp.DummyCookieJar(),  # httpx keeps the cookies
-                auto_decompress=False,  # httpx decodes the body by its Content-Encoding
-                skip_auto_headers=("User-Agent", "Accept", "Accept-Encoding", "Content-Type"),
-                trace_configs=[tracing],
-            )
+            self._session = pooled_session(self._keepalive_s, opened)
         return self._session
 
     async def handle_async_request(self, request: httpx2.Request) -> httpx2.Response:
@@ -141,4 +152,4 @@ def transport_for(url: str, **httpx_options: Any) -> httpx2.AsyncBaseTransport:
     return httpx2.AsyncHTTPTransport(**httpx_options)
 
 
-__all__ = ["AiohttpTransport", "transport_for"]
+__all__ = ["AiohttpTransport", "pooled_session", "transport_for"]

@@ -46,6 +46,9 @@ class ServerSpec:
     env: dict[str, str] = field(default_factory=dict)
     #: The bearer token of an HTTP server started with --auth-token (default: $ROBOCOG_AUTH_TOKEN).
     auth_token: str | None = field(default_factory=lambda: os.environ.get("ROBOCOG_AUTH_TOKEN") or None)
+    #: The server at a plain-HTTP `url` answers every POST with one JSON body (a fleet the harness
+    #: started with --json-response): robocog's lean transport (`json_http`) in place of the SDK's.
+    json_answers: bool = False
 
     @classmethod
     def from_options(cls, url: str | None, server_cmd: str | None, extra_args: list[str] | None = None) -> ServerSpec:
@@ -149,8 +152,12 @@ async def connect(spec: ServerSpec) -> AsyncIterator[Robot]:
     from mcp.client.stdio import stdio_client
 
     log: ServerLog | None = None
-    if spec.url:
-        target: Any = _http_transport(spec.url, spec.auth_token)
+    if spec.url and spec.json_answers and spec.url.lower().startswith("http://"):
+        from robocog.agent.client.json_http import json_http_client
+
+        target: Any = json_http_client(spec.url, spec.auth_token, keepalive_s=CLIENT_KEEP_ALIVE_S)
+    elif spec.url:
+        target = _http_transport(spec.url, spec.auth_token)
     else:
         command, *args = spec.command
         params = StdioServerParameters(command=command, args=[*args, *spec.extra_args], env=spawn_env(spec.env))
@@ -177,17 +184,14 @@ async def _http_transport(url: str, token: str | None) -> AsyncIterator[Any]:
     from mcp.client.streamable_http import streamable_http_client
 
     from robocog.agent.client.aiohttp_transport import transport_for
+    from robocog.agent.client.json_http import refused_sentence
     from robocog.agent.client.keepalive import KeepAliveTransport
 
     headers = {"Authorization": f"Bearer {token}"} if token else {}
 
     async def refused(response: httpx2.Response) -> None:
         if response.status_code == 401:
-            given = "the bearer token in $ROBOCOG_AUTH_TOKEN was refused" if token else "it needs a bearer token"
-            raise ServerConnectionError(
-                f"the robot server at {url} refused the connection: {given} "
-                "(set ROBOCOG_AUTH_TOKEN to the server's --auth-token)"
-            )
+            raise ServerConnectionError(refused_sentence(url, token))
 
     # The SDK's own timeouts: a response stream may stay open for minutes.
     timeout = httpx2.Timeout(30.0, read=300.0)

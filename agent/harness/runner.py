@@ -102,8 +102,9 @@ class Runner:
         self.progress.advance(row=row)
 
     def spec(self, worker: int) -> ServerSpec:
-        if self.urls:
-            return ServerSpec(url=self.urls[worker % len(self.urls)])
+        if self.urls:  # a fleet this study started answers in JSON: the lean transport
+            json_answers = self.fleets is not None and self.fleets.json_response
+            return ServerSpec(url=self.urls[worker % len(self.urls)], json_answers=json_answers)
         args = ["--profile", "eval", *memory_args(self.config.server_args, self.work_dir / f"worker-{worker}")]
         if self.server_command:
             return ServerSpec(command=list(self.server_command), extra_args=args)

@@ -10,8 +10,9 @@ A real `robocog-server --transport http` process on a free loopback port:
   each opened (counted at the event loop, where both HTTP stacks open them), the client's and the
   server's CPU per call, the wall time, and the connections opened by calls after a pause longer than
   httpx's and uvicorn's 5 s;
-- one JSON body per answer: robocog's client against a server started with `--json-response` (as the
-  harness starts its fleets), the same calls' CPU and time.
+- one JSON body per answer: against a server started with `--json-response` (as the harness starts
+  its fleets), the same calls' CPU and time through robocog's SDK path and through the lean transport
+  a study's fleets use (`agent/client/json_http.py`), alternating in rounds.
 """
 
 from __future__ import annotations
@@ -170,22 +171,37 @@ async def _reuse(url: str, pid: int) -> dict[str, object]:
 
 
 async def _json_calls(url: str, pid: int) -> dict[str, object]:
-    """robocog's client against a `--json-response` server (as the harness starts its fleets): the
-    CPU and time of REUSE_CALLS calls, to set beside `_reuse`'s event-stream answers."""
+    """A `--json-response` server (as the harness starts its fleets): the CPU and time of REUSE_CALLS
+    calls through robocog's SDK path and through the lean transport a study's fleets use
+    (`json_http`), alternating in rounds, to set beside `_reuse`'s event-stream answers."""
     from robocog.agent.client.connection import _http_transport
+    from robocog.agent.client.json_http import json_http_client
+    from robocog.agent.client.output_schemas import share_validators
 
-    async with Client(_http_transport(url, None), mode="legacy") as ours:
-        await ours.call_tool("look_around", {})
-        c0, s0, t0 = time.process_time(), _cpu_s(pid), time.perf_counter()
-        for _ in range(REUSE_CALLS):
-            await ours.call_tool("look_around", {})
-        wall, server, client = time.perf_counter() - t0, _cpu_s(pid) - s0, time.process_time() - c0
-    key = "http.json_response.robocog"
-    return {
-        f"{key}.client_cpu_ms_per_call": round(client / REUSE_CALLS * 1000, 2),
-        f"{key}.server_cpu_ms_per_call": round(server / REUSE_CALLS * 1000, 2),
-        f"{key}.wall_ms_per_call": round(wall / REUSE_CALLS * 1000, 2),
-    }
+    totals = {way: [0.0, 0.0, 0.0] for way in ("robocog", "lean")}
+    async with (
+        Client(_http_transport(url, None), mode="legacy") as ours,
+        Client(json_http_client(url), mode="legacy") as lean,
+    ):
+        for client in (ours, lean):  # as `connect` does: the tools listed, their validators shared
+            share_validators(client.session, (await client.list_tools()).tools)
+            await client.call_tool("look_around", {})
+        for _ in range(REUSE_ROUNDS):
+            for way, client in (("robocog", ours), ("lean", lean)):
+                c0, s0, t0 = time.process_time(), _cpu_s(pid), time.perf_counter()
+                for _ in range(REUSE_CALLS // REUSE_ROUNDS):
+                    await client.call_tool("look_around", {})
+                total = totals[way]
+                total[0] += time.process_time() - c0
+                total[1] += _cpu_s(pid) - s0
+                total[2] += time.perf_counter() - t0
+    figures: dict[str, object] = {}
+    for way, (client_s, server_s, wall_s) in totals.items():
+        key = f"http.json_response.{way}"
+        figures[f"{key}.client_cpu_ms_per_call"] = round(client_s / REUSE_CALLS * 1000, 2)
+        figures[f"{key}.server_cpu_ms_per_call"] = round(server_s / REUSE_CALLS * 1000, 2)
+        figures[f"{key}.wall_ms_per_call"] = round(wall_s / REUSE_CALLS * 1000, 2)
+    return figures
 
 
 def _reuse_in_child(url: str, pid: int, mode: str = "--reuse") -> dict[str, object]:
