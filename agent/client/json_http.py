@@ -5,11 +5,12 @@ The SDK's streamable HTTP client serves any server: event streams, resumption, r
 origin, a GET stream for the server's own notifications. For each message it builds an httpx request
 (parsing the URL again), opens a task group in the sender's context, dumps the message to a dict that
 httpx encodes, and reads the answer through httpx's response objects. Even with aiohttp under httpx
-(`aiohttp_transport`), that cost the harness 1.77 ms of CPU per call against 0.35 ms for a bare aiohttp
-POST of the same JSON-RPC, and an attempt on a fleet makes about 25 calls. This transport keeps the
-SDK's `Client` and session (its requests, timeouts, cancellation and validation) and replaces only
-the part under the two streams: each message is one POST of its JSON, and the answer's one JSON body
-goes back up the read stream. One aiohttp pool keeps the connection alive for the whole attempt.
+(`aiohttp_transport`), the harness spent about 1.5 ms of CPU per `look_around` on a fleet, against
+about 1.0 ms through this transport (docs/figures.md, "HTTP connections"), and an attempt makes 24
+calls. This transport keeps the SDK's `Client` and session (its requests, timeouts, cancellation and
+validation) and replaces only the part under the two streams: each message is one POST of its JSON,
+and the answer's one JSON body goes back up the read stream. One aiohttp pool keeps the connection
+alive for the whole attempt.
 
 What it does as the SDK's transport does: the session id from `initialize`'s answer on every later
 request, the negotiated `MCP-Protocol-Version` (from the session's stamp), the message's own headers,

@@ -235,6 +235,7 @@ def measure(here: Path, against: Path | None, extra: int = EXTRA) -> dict[str, A
     physics: list[float] = []
     attempts: dict[str, list[float]] = {}
     ratios: dict[str, list[float]] = {}
+    beyond: dict[str, list[float]] = {}  # the attempt's CPU less the physics-only CPU at the time
     parts: dict[str, dict[str, list[float]]] = {}
     for _ in range(ROUNDS):
         for isolation, name in (("process", "stdio"), ("fleet", "fleet")):
@@ -243,6 +244,7 @@ def measure(here: Path, against: Path | None, extra: int = EXTRA) -> dict[str, A
                 physics.append(at_the_time)
                 attempts.setdefault(f"{prefix}{name}", []).append(attempt)
                 ratios.setdefault(f"{prefix}{name}", []).append(attempt / at_the_time)
+                beyond.setdefault(f"{prefix}{name}", []).append(attempt - at_the_time)
                 for part, cpu in by_part.items():
                     parts.setdefault(f"{prefix}{name}", {}).setdefault(part, []).append(cpu)
     out: dict[str, Any] = {
@@ -254,6 +256,8 @@ def measure(here: Path, against: Path | None, extra: int = EXTRA) -> dict[str, A
         out[f"overhead.{key}.attempt_cpu_s_runs"] = [round(v, 3) for v in values]
         out[f"overhead.{key}.ratio"] = round(statistics.median(ratios[key]), 2)
         out[f"overhead.{key}.ratio_runs"] = [round(v, 2) for v in ratios[key]]
+        # the CPU an attempt spends besides its physical actions (the ratio less one, in ms)
+        out[f"overhead.{key}.beyond_physics_ms"] = round(statistics.median(beyond[key]) * 1000, 1)
         for part, cpus in parts[key].items():  # where the attempt's CPU went (the tool bodies hold the physics)
             out[f"overhead.{key}.part.{part}_ms"] = round(statistics.median(cpus) * 1000, 1)
     out["overhead.target_ratio"] = 1.5
