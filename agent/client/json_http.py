@@ -16,9 +16,14 @@ What it does as the SDK's transport does: the session id from `initialize`'s ans
 request, the negotiated `MCP-Protocol-Version` (from the session's stamp), the message's own headers,
 a `202 Accepted` or an error status as the request's JSON-RPC error (the server's own error body when
 it sent one), a 2026 cancellation closing the POST it names (a cancellation frame POSTed below 2026),
-and a `DELETE` of the session when it closes. A failed connection ends the session with aiohttp's
-error, as httpx's ends the SDK's. A `401` is `ServerConnectionError` with the same sentence as
-robocog's SDK path.
+and a `DELETE` of the session when it closes. A `401` is `ServerConnectionError` with the same
+sentence as robocog's SDK path.
+
+What it does better for a study: a server that cannot be reached, hangs up or never answers fails
+the request it was sent, as that request's error (`CONNECTION_CLOSED`, naming aiohttp's error),
+where the SDK's transport ends the whole session from its task group and cancels whatever the caller
+was doing. The episode loop then reports the server's failure, the harness records the attempt as
+broken and reconnects, and a fleet that died is started again (`Runner.worker`, `Fleets.ensure`).
 
 What it does not do, because the fleets never need it: read an event stream (an answer that is not
 JSON fails its request, naming the content type), follow a redirect (it fails its request, naming the
@@ -29,6 +34,7 @@ other server, and every URL a user gives, goes through the SDK's transport (`con
 from __future__ import annotations
 
 import contextlib
+import logging
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from typing import Any
@@ -41,6 +47,7 @@ from mcp.shared.inbound import MCP_PROTOCOL_VERSION_HEADER
 from mcp.shared.jsonrpc_dispatcher import cancelled_request_id_from_params
 from mcp.shared.message import ClientMessageMetadata, SessionMessage
 from mcp_types import (
+    CONNECTION_CLOSED,
     INTERNAL_ERROR,
     INVALID_REQUEST,
     METHOD_NOT_FOUND,
@@ -65,6 +72,18 @@ MCP_SESSION_ID = "mcp-session-id"
 CONNECT_TIMEOUT_S, READ_TIMEOUT_S = 30.0, 300.0
 
 Reader = MemoryObjectSendStream[SessionMessage | Exception]
+#: A server that cannot be reached, hangs up, answers garbage or never answers.
+UNREACHABLE = (aiohttp.ClientError, OSError, TimeoutError)
+
+logger = logging.getLogger(__name__)
+
+
+def unreachable(exc: BaseException) -> bool:
+    """Whether `exc` is a request's failure because its server could not be reached (this transport's
+    `CONNECTION_CLOSED`, as the SDK's session also raises when its connection closes)."""
+    from mcp.shared.exceptions import MCPError
+
+    return isinstance(exc, MCPError) and exc.error.code == CONNECTION_CLOSED
 
 
 def refused_sentence(url: str, token: str | None) -> str:
@@ -143,7 +162,10 @@ class JsonHttpLink:
                     self._in_flight[message.id] = entry
                     tg.start_soon(self._request, message, meta, inbound, entry)
                 else:
-                    await self._post(message, meta, inbound)
+                    try:
+                        await self._post(message, meta, inbound)
+                    except UNREACHABLE:  # a notification lost with the server: its next request says so
+                        logger.debug("a notification was not delivered", exc_info=True)
 
     def _cancels(self, message: JSONRPCMessage) -> bool:
         """A `notifications/cancelled` at 2026 closes the POST it names and is not sent (closing the
@@ -169,9 +191,14 @@ class JsonHttpLink:
         try:
             with entry[0]:
                 await self._post(message, meta, inbound)
+        except UNREACHABLE as exc:  # the request's error, where it was made: the session can close cleanly
+            await _fail(inbound, message.id, self._unreachable(exc), CONNECTION_CLOSED)
         finally:
             if self._in_flight.get(message.id) is entry:
                 del self._in_flight[message.id]
+
+    def _unreachable(self, exc: BaseException) -> str:
+        return f"the robot server at {self.url} is unreachable: {type(exc).__name__}: {exc}"
 
     async def _post(self, message: JSONRPCMessage, meta: ClientMessageMetadata | None, inbound: Reader) -> None:
         body = message.model_dump_json(by_alias=True, exclude_unset=True)
@@ -282,4 +309,4 @@ async def json_http_client(
         yield streams
 
 
-__all__ = ["JsonHttpLink", "json_http_client", "json_http_streams", "refused_sentence"]
+__all__ = ["JsonHttpLink", "json_http_client", "json_http_streams", "refused_sentence", "unreachable"]

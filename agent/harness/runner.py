@@ -34,6 +34,7 @@ from typing import Any
 
 from robocog.agent.analysis.taxonomy import annotate
 from robocog.agent.client.connection import Robot, ServerSpec, connect, leaf_message
+from robocog.agent.client.json_http import unreachable
 from robocog.agent.client.loop import finish, function_definitions, run_episode, world_has_furniture
 from robocog.agent.client.model import resolve_api_key
 from robocog.agent.client.settings import AgentSettings
@@ -128,9 +129,15 @@ class Runner:
             reset["perturbations"] = cfg.perturbations
         controls = self.controls(robot)
         for iteration in range(start_iteration, cfg.memory_iterations):
-            await controls.reset_world(seed=seed, randomize=cfg.randomize, **reset)
-            if iteration == 0:
-                await controls.clear_memory()
+            written = False  # no row of this iteration yet: a server lost now costs it nothing
+            try:
+                await controls.reset_world(seed=seed, randomize=cfg.randomize, **reset)
+                if iteration == 0:
+                    await controls.clear_memory()
+            except Exception as exc:
+                if unreachable(exc):  # the server died between attempts: the iteration runs on a new one
+                    return iteration
+                raise
             conversation: list[dict[str, Any]] = []  # the paper: one conversation per memory iteration
             succeeded: set[str] = set()
             for index, task_id in enumerate(cfg.tasks):
@@ -159,7 +166,12 @@ class Runner:
                     await self.write(broke.row)
                     self.progress.advance(len(cfg.tasks) - index - 1)
                     return iteration + 1
+                except Exception as exc:  # begin_task (or a suite's set-up) found the server gone
+                    if unreachable(exc) and not written:
+                        return iteration
+                    raise
                 await self.write(row)
+                written = True
                 if row.outcome == "error":  # the model service failed: the unit stops; --resume reruns it
                     later = (cfg.memory_iterations - iteration - 1) * len(cfg.tasks)
                     self.progress.advance(len(cfg.tasks) - index - 1 + later)
@@ -167,7 +179,11 @@ class Runner:
                 if row.true_success:
                     succeeded.add(task_id)
         if not cfg.keep_memory:  # the unit is done: its namespace (records and files) goes
-            await controls.clear_memory(drop=True)
+            try:
+                await controls.clear_memory(drop=True)
+            except Exception as exc:  # every row is written: only the namespace stays, on the dead server's disk
+                if not unreachable(exc):
+                    raise
         return None
 
     @staticmethod

@@ -5,8 +5,11 @@ module; the pool's bookkeeping (idle drivers, recycling) also in process with a 
 from __future__ import annotations
 
 import json
+import os
+import signal
 import subprocess
 import sys
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -139,6 +142,67 @@ async def test_a_study_gives_the_same_rows_on_fleets_as_on_server_processes(flee
     )
     assert done.returncode == 0, done.stdout + done.stderr
     assert outcome(read_rows(out)) == outcome(serial)
+
+
+def fleet_children(parent: int) -> list[int]:
+    """The fleet servers `parent` spawned (its children started with --robots)."""
+    found = []
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            status = (entry / "status").read_text()
+            argv = (entry / "cmdline").read_bytes().split(b"\0")
+        except OSError:  # gone meanwhile
+            continue
+        ppid = next(int(line.split()[1]) for line in status.splitlines() if line.startswith("PPid:"))
+        if ppid == parent and b"--robots" in argv:
+            found.append(int(entry.name))
+    return found
+
+
+@pytest.mark.parametrize("when", ["mid-attempt", "between attempts"])
+def test_a_fleet_that_dies_mid_study_is_started_again_and_the_study_goes_on(tmp_path: Path, when: str) -> None:
+    """The fleet a study spawned is killed. Mid-attempt: that attempt is an error row naming the
+    unreachable server (the transport fails the call, not the whole session) and --resume reruns it.
+    Between attempts (after a row, in the unit's end or the next one's reset): the iteration runs on
+    the fleet started again, with nothing lost. Either way the worker reconnects to the fleet started
+    again on its port, and the other trials run."""
+    config = tmp_path / "study.yaml"
+    study = {"name": "dies", "models": [{"model": "scripted/planner"}], "tasks": ["T1"], "trials": 6}
+    config.write_text(json.dumps(study | {"memory_iterations": 1}), encoding="utf-8")
+    out = tmp_path / "rows.jsonl"
+    third = tmp_path / "rows.traces" / "scripted_planner" / "trial-2" / "iter-0-T1.jsonl"
+
+    def now() -> bool:
+        if when == "mid-attempt":  # the third attempt has made a few calls, and has many left
+            return third.exists() and third.read_text().count('"tool_call"') >= 3
+        return out.exists() and len(out.read_text().splitlines()) >= 2
+
+    command = [sys.executable, "-m", "robocog.agent.cli", "eval", str(config), "--out", str(out), "--quiet"]
+    fleet = ["--isolation", "fleet", "--fleet-processes", "1", "--workers", "1"]
+    proc = subprocess.Popen([*command, *fleet], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 120
+        while not now():
+            assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
+            time.sleep(0.005)
+        (killed,) = fleet_children(proc.pid)
+        os.kill(killed, signal.SIGKILL)
+        stdout, stderr = proc.communicate(timeout=180)
+    finally:
+        proc.kill()
+    rows = read_rows(out)
+    assert len(rows) == 6, stdout + stderr
+    broken = [r for r in rows if r.outcome == "error"]
+    assert all("is unreachable" in (r.error or "") for r in broken), broken
+    assert len(broken) == 1 if when == "mid-attempt" else len(broken) <= 1  # the kill may land in the next attempt
+    assert proc.returncode == (1 if broken else 0), stderr
+    assert sum(r.true_success for r in rows) == 6 - len(broken)
+    assert fleet_children(proc.pid) == []  # the restarted fleet was stopped with the study
+    again = subprocess.run([*command, *fleet, "--resume"], capture_output=True, text=True, timeout=180)
+    assert again.returncode == 0, again.stdout + again.stderr
+    assert all(r.true_success for r in read_rows(out)) and len(read_rows(out)) == 6
 
 
 async def test_a_study_drops_its_units_memory_namespaces_unless_told_to_keep_them(
