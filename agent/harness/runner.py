@@ -129,7 +129,7 @@ class Runner:
             reset["perturbations"] = cfg.perturbations
         controls = self.controls(robot)
         for iteration in range(start_iteration, cfg.memory_iterations):
-            written = False  # no row of this iteration yet: a server lost now costs it nothing
+            written = False  # nothing of this iteration written or counted yet: a server lost now costs it nothing
             try:
                 await controls.reset_world(seed=seed, randomize=cfg.randomize, **reset)
                 if iteration == 0:
@@ -143,6 +143,7 @@ class Runner:
             for index, task_id in enumerate(cfg.tasks):
                 if not runnable(task_id, succeeded, robot.requires):
                     self.progress.advance()  # skipped: a task it requires failed (no row)
+                    written = True  # counted: a rerun of the iteration would count it again
                     continue
                 messages = conversation if protocol.continue_conversation else []
 
