@@ -7,7 +7,7 @@ core; a study spreads its workers over a few fleets (by default one per core, an
 workers when that is more: `default_processes`), worker i on fleet i mod P. Each fleet keeps its
 memory in its own data directory, where every unit has a namespace of its own. A fleet that dies
 is started again on the same port over the same data directory when a worker next connects (its
-units resume from the iteration that broke, as with a server process).
+units resume from the iteration that broke, as with a server process), unless it keeps dying.
 """
 
 from __future__ import annotations
@@ -16,6 +16,7 @@ import asyncio
 import math
 import os
 import subprocess
+import time
 from collections.abc import Sequence
 from pathlib import Path
 from types import TracebackType
@@ -27,6 +28,9 @@ from robocog.shared.process import PARENT_ENV, free_port, wait_listening
 
 #: How long a fleet may take to listen (its imports and first robot take about 3 s on this machine).
 START_TIMEOUT_S = 90.0
+#: A fleet that has died this many times within the window is not started again: the study stops
+#: with the end of its log (something kills it, or it cannot run), where it would restart without end.
+MAX_RESTARTS, RESTART_WINDOW_S = 3, 60.0
 
 
 def memory_args(server_args: Sequence[str], data_dir: Path) -> list[str]:
@@ -75,6 +79,7 @@ class Fleets:
         self.ports = [free_port() for _ in range(self.processes)]
         self._procs: list[subprocess.Popen[bytes] | None] = [None] * self.processes
         self._logs: list[IO[bytes] | None] = [None] * self.processes
+        self._restarts: list[list[float]] = [[] for _ in range(self.processes)]  # when each was started again
         self._lock = asyncio.Lock()
 
     @property
@@ -111,12 +116,19 @@ class Fleets:
         return f"the fleet server {index} ({self.urls[index]}) {what}; the end of its log:\n{tail}"
 
     async def ensure(self, worker: int) -> None:
-        """Start worker `worker`'s fleet again if it has died (same port, same data directory)."""
+        """Start worker `worker`'s fleet again if it has died (same port, same data directory), unless
+        it has died `MAX_RESTARTS` times within `RESTART_WINDOW_S` already (`ServerConnectionError`)."""
         index = worker % self.processes
         async with self._lock:
             proc = self._procs[index]
             if proc is not None and proc.poll() is None:
                 return
+            now = time.monotonic()
+            recent = self._restarts[index] = [t for t in self._restarts[index] if now - t < RESTART_WINDOW_S]
+            if len(recent) >= MAX_RESTARTS:
+                died = f"died {len(recent) + 1} times within {RESTART_WINDOW_S:g} s and is not started again"
+                raise ServerConnectionError(self._failure(index, died))
+            recent.append(now)
             self._close_log(index)
             self._start(index)
             await self._wait_listening(index)

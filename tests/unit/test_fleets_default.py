@@ -31,3 +31,34 @@ def test_the_fleets_of_a_study_follow_the_default_never_past_the_workers(
     assert (many.processes, many.robots) == (4, 17)  # 16 robots each, and one to spare
     assert Fleets(1, tmp_path).processes == 1  # never more fleets than workers
     assert Fleets(64, tmp_path, processes=2).processes == 2  # as told
+
+
+#: A "fleet server" that listens on the port it is given and dies a moment later.
+SHORT_LIVED = """
+import socket, sys, time
+port = int(sys.argv[sys.argv.index("--port") + 1])
+with socket.create_server(("127.0.0.1", port)):
+    print("listening, and dying soon", flush=True)
+    time.sleep(0.2)
+"""
+
+
+@pytest.mark.anyio
+async def test_a_fleet_that_keeps_dying_is_started_again_a_few_times_then_not(tmp_path: Path) -> None:
+    import sys
+
+    from robocog.shared.errors import ServerConnectionError
+
+    script = tmp_path / "dies.py"
+    script.write_text(SHORT_LIVED, encoding="utf-8")
+    async with Fleets(1, tmp_path, processes=1, server_command=[sys.executable, str(script)]) as spawned:
+        proc = spawned._procs[0]
+        for _ in range(fleets.MAX_RESTARTS):
+            assert proc is not None and proc.wait(timeout=10) == 0
+            await spawned.ensure(0)  # started again: it listens again
+            assert spawned._procs[0] is not proc
+            proc = spawned._procs[0]
+        assert proc is not None and proc.wait(timeout=10) == 0
+        with pytest.raises(ServerConnectionError, match=r"died 4 times within 60 s and is not started again") as why:
+            await spawned.ensure(0)
+    assert "listening, and dying soon" in str(why.value)  # the end of its log says what it did
