@@ -13,8 +13,10 @@ units resume from the iteration that broke, as with a server process), unless it
 from __future__ import annotations
 
 import asyncio
+import errno
 import math
 import os
+import socket
 import subprocess
 import time
 from collections.abc import Sequence
@@ -31,6 +33,16 @@ START_TIMEOUT_S = 90.0
 #: A fleet that has died this many times within the window is not started again: the study stops
 #: with the end of its log (something kills it, or it cannot run), where it would restart without end.
 MAX_RESTARTS, RESTART_WINDOW_S = 3, 60.0
+#: How long a fleet that refuses connections while it still runs is given to exit before it is killed.
+DYING_S = 5.0
+
+
+def refused(port: int) -> bool:
+    """Whether nothing listens on loopback `port` (a connection refused; one that only waits, as when
+    the listener's backlog is full, is a listener)."""
+    with socket.socket() as s:
+        s.settimeout(2.0)
+        return s.connect_ex(("127.0.0.1", port)) == errno.ECONNREFUSED
 
 
 def memory_args(server_args: Sequence[str], data_dir: Path) -> list[str]:
@@ -122,7 +134,15 @@ class Fleets:
         async with self._lock:
             proc = self._procs[index]
             if proc is not None and proc.poll() is None:
-                return
+                if not await asyncio.to_thread(refused, self.ports[index]):
+                    return
+                # running but refusing connections: killed and not yet gone (a worker that saw it go can
+                # get here first), or hung: it is given a moment to exit, then killed
+                try:
+                    await asyncio.to_thread(proc.wait, DYING_S)
+                except subprocess.TimeoutExpired:
+                    proc.kill()
+                    await asyncio.to_thread(proc.wait)
             now = time.monotonic()
             recent = self._restarts[index] = [t for t in self._restarts[index] if now - t < RESTART_WINDOW_S]
             if len(recent) >= MAX_RESTARTS:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import anyio
 import pytest
 
 from robocog.agent.harness import fleets
@@ -62,3 +63,30 @@ async def test_a_fleet_that_keeps_dying_is_started_again_a_few_times_then_not(tm
         with pytest.raises(ServerConnectionError, match=r"died 4 times within 60 s and is not started again") as why:
             await spawned.ensure(0)
     assert "listening, and dying soon" in str(why.value)  # the end of its log says what it did
+
+
+#: A "fleet server" that stops listening a moment after it starts and exits a second later (as a
+#: killed process is gone from the network before it is reaped).
+SLOW_TO_DIE = """
+import socket, sys, time
+port = int(sys.argv[sys.argv.index("--port") + 1])
+with socket.create_server(("127.0.0.1", port)):
+    time.sleep(0.3)
+time.sleep(1.0)
+"""
+
+
+@pytest.mark.anyio
+async def test_a_fleet_that_refuses_connections_while_it_exits_is_waited_for_and_started_again(tmp_path: Path) -> None:
+    import sys
+
+    script = tmp_path / "slow.py"
+    script.write_text(SLOW_TO_DIE, encoding="utf-8")
+    async with Fleets(1, tmp_path, processes=1, server_command=[sys.executable, str(script)]) as spawned:
+        first = spawned._procs[0]
+        while not fleets.refused(spawned.ports[0]):  # no longer listening, still running
+            await anyio.sleep(0.05)
+        assert first is not None and first.poll() is None
+        await spawned.ensure(0)
+        assert first.poll() is not None, "waited for it to exit"
+        assert spawned._procs[0] is not first and not fleets.refused(spawned.ports[0])
