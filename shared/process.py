@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import errno
 import signal
 import socket
 import subprocess
@@ -75,6 +76,14 @@ def probe_bind(host: str, port: int) -> tuple[int, str | None]:
         except OSError as exc:
             return port, exc.strerror or str(exc)
         return int(probe.getsockname()[1]), None
+
+
+def refused(port: int) -> bool:
+    """Whether nothing listens on loopback `port` (a connection refused; one that only waits, as when
+    the listener's backlog is full, is a listener)."""
+    with socket.socket() as s:
+        s.settimeout(2.0)
+        return s.connect_ex(("127.0.0.1", port)) == errno.ECONNREFUSED
 
 
 def wait_listening(port: int, proc: subprocess.Popen[bytes], timeout_s: float) -> str | None:

@@ -19,7 +19,8 @@ from typing import IO, Any, TextIO, cast
 
 from mcp import Client
 from mcp.client.stdio import StdioServerParameters
-from mcp_types import Tool
+from mcp.shared.exceptions import MCPError
+from mcp_types import CONNECTION_CLOSED, Tool
 
 from robocog.shared import __version__
 from robocog.shared.errors import ServerConnectionError
@@ -140,6 +141,13 @@ def leaf_message(exc: BaseException) -> str:
     while isinstance(exc, BaseExceptionGroup) and exc.exceptions:
         exc = exc.exceptions[0]
     return f"{type(exc).__name__}: {exc}"
+
+
+def unreachable(exc: BaseException) -> bool:
+    """Whether `exc` is a request's failure because its server could not be reached: `CONNECTION_CLOSED`,
+    as the SDK's session raises when its connection closes and `json_http` when a POST cannot reach
+    the server."""
+    return isinstance(exc, MCPError) and exc.error.code == CONNECTION_CLOSED
 
 
 @asynccontextmanager

@@ -78,14 +78,6 @@ UNREACHABLE = (aiohttp.ClientError, OSError, TimeoutError)
 logger = logging.getLogger(__name__)
 
 
-def unreachable(exc: BaseException) -> bool:
-    """Whether `exc` is a request's failure because its server could not be reached (this transport's
-    `CONNECTION_CLOSED`, as the SDK's session also raises when its connection closes)."""
-    from mcp.shared.exceptions import MCPError
-
-    return isinstance(exc, MCPError) and exc.error.code == CONNECTION_CLOSED
-
-
 def refused_sentence(url: str, token: str | None) -> str:
     """What a `401` means to the person running the client (the SDK path says the same)."""
     given = "the bearer token in $ROBOCOG_AUTH_TOKEN was refused" if token else "it needs a bearer token"
@@ -309,4 +301,4 @@ async def json_http_client(
         yield streams
 
 
-__all__ = ["JsonHttpLink", "json_http_client", "json_http_streams", "refused_sentence", "unreachable"]
+__all__ = ["JsonHttpLink", "json_http_client", "json_http_streams", "refused_sentence"]

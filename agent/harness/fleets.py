@@ -13,10 +13,8 @@ units resume from the iteration that broke, as with a server process), unless it
 from __future__ import annotations
 
 import asyncio
-import errno
 import math
 import os
-import socket
 import subprocess
 import time
 from collections.abc import Sequence
@@ -26,7 +24,7 @@ from typing import IO, Self
 
 from robocog.agent.client.connection import default_server_command
 from robocog.shared.errors import ServerConnectionError
-from robocog.shared.process import PARENT_ENV, free_port, wait_listening
+from robocog.shared.process import PARENT_ENV, free_port, refused, wait_listening
 
 #: How long a fleet may take to listen (its imports and first robot take about 3 s on this machine).
 START_TIMEOUT_S = 90.0
@@ -35,14 +33,6 @@ START_TIMEOUT_S = 90.0
 MAX_RESTARTS, RESTART_WINDOW_S = 3, 60.0
 #: How long a fleet that refuses connections while it still runs is given to exit before it is killed.
 DYING_S = 5.0
-
-
-def refused(port: int) -> bool:
-    """Whether nothing listens on loopback `port` (a connection refused; one that only waits, as when
-    the listener's backlog is full, is a listener)."""
-    with socket.socket() as s:
-        s.settimeout(2.0)
-        return s.connect_ex(("127.0.0.1", port)) == errno.ECONNREFUSED
 
 
 def memory_args(server_args: Sequence[str], data_dir: Path) -> list[str]:

@@ -33,8 +33,7 @@ from pathlib import Path
 from typing import Any
 
 from robocog.agent.analysis.taxonomy import annotate
-from robocog.agent.client.connection import Robot, ServerSpec, connect, leaf_message
-from robocog.agent.client.json_http import unreachable
+from robocog.agent.client.connection import Robot, ServerSpec, connect, leaf_message, unreachable
 from robocog.agent.client.loop import finish, function_definitions, run_episode, world_has_furniture
 from robocog.agent.client.model import resolve_api_key
 from robocog.agent.client.settings import AgentSettings
