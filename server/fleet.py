@@ -111,16 +111,16 @@ class Memories:
         return len(self._open)
 
     def close_all(self) -> None:
-        """Close every namespace (call it while no robot uses one); Chroma's client stops with the
-        last of them, and returns what it held."""
-        from robocog.server.memory.episodic import release_heap
+        """Close every namespace (call it while no robot uses one) and stop Chroma's client, which
+        returns what it held."""
+        from robocog.server.memory.chroma import EMBEDDED
 
         with self._lock:
             for memory in self._open.values():
                 memory.close()
             self._open.clear()
             self.uses = 0
-        release_heap()
+        EMBEDDED.stop_idle()
 
     def close(self) -> None:
         self.close_all()

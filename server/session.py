@@ -135,10 +135,7 @@ class RobotSession:
         if namespace == self._namespace:
             return
         if self._memory is not None and self._memories is None:
-            from robocog.server.memory.episodic import release_heap
-
-            self._memory.close()  # Chroma's client stops with it and returns what the namespace held
-            release_heap()
+            self._memory.close()  # its client goes back to the process's (`chroma.EMBEDDED`)
         self._memory = None
         self._namespace = namespace
 

@@ -2,8 +2,9 @@
 to it and drops it, and Chroma holds the GIL through most of that, so what is spent around its calls
 is spent by the whole process.
 
-Here: the client settings (made once), the catalogue lookup of a collection's index directories and
-their size (for `EpisodicMemory.drop`), and the C heap trim done after a client stops.
+Here: the client settings (made once), the embedded clients kept running between namespaces
+(`EMBEDDED`), the catalogue lookup of a collection's index directories and their size (for
+`EpisodicMemory.drop`), and the C heap trim done after a client stops.
 """
 
 from __future__ import annotations
@@ -11,10 +12,15 @@ from __future__ import annotations
 import contextlib
 import functools
 import os
-from typing import Any
+import threading
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 from uuid import UUID
 
 from chromadb.config import Settings
+
+if TYPE_CHECKING:
+    from chromadb.api import ClientAPI
 
 
 @functools.cache
@@ -27,6 +33,104 @@ def _base_settings() -> Settings:
 def client_settings() -> Settings:
     """A copy of the settings for one client (`chromadb.PersistentClient` writes its path into them)."""
     return _base_settings().model_copy()
+
+
+#: Namespaces an embedded client opens before it is stopped and started afresh. Chroma keeps what every
+#: collection its client opened held (about 2.7 MB each, dropped or not) until the client stops, so a
+#: client kept for ever would grow with every unit of a study; one started for each namespace cost a
+#: unit about 7 ms of CPU more (its start, its first statements, its stop and the heap trim: the
+#: `memory.namespace_*` figures of `make bench`).
+KEEP_NAMESPACES = 8
+
+
+@dataclass
+class _Kept:
+    client: ClientAPI
+    #: The database file as the client found it (device, inode): a store deleted or replaced since
+    #: (by another process, or a test's clean-up) gets a client of its own.
+    identity: tuple[int, int] | None
+    users: int = 0
+    opened: int = 0
+
+
+class EmbeddedClients:
+    """The embedded Chroma client of each data directory, shared by the namespaces open on it and
+    kept running between them: a study's units each open a namespace, write to it and drop it, and a
+    client started and stopped for each was most of what the memory cost them.
+
+    Bounded: a client is stopped once `keep` namespaces have been opened on it and none is open any
+    more (the next opens a new one), or at `stop_idle` (a fleet closing every namespace to stay
+    bounded); of clients no namespace uses, only the one released last is kept running."""
+
+    def __init__(self, keep: int = KEEP_NAMESPACES) -> None:
+        self.keep = keep
+        self._kept: dict[str, _Kept] = {}
+        self._lock = threading.Lock()
+        #: How many clients were started, for the tests and the bench.
+        self.started = 0
+
+    def acquire(self, path: str) -> ClientAPI:
+        """The client of the store at `path` for one namespace more (give it back with `release`)."""
+        import chromadb
+
+        with self._lock:
+            kept = self._kept.get(path)
+            if kept is not None and kept.users == 0 and (kept.opened >= self.keep or kept.identity != _identity(path)):
+                self._stop(path)
+                kept = None
+            if kept is None:
+                client = chromadb.PersistentClient(path=path, settings=client_settings())
+                kept = self._kept[path] = _Kept(client, _identity(path))
+                self.started += 1
+            kept.users += 1
+            kept.opened += 1
+            return kept.client
+
+    def release(self, path: str) -> None:
+        """A namespace on `path` is closed: stop its client if it has served its turn, and of the
+        clients no one uses keep only this one running."""
+        stopped = False
+        with self._lock:
+            kept = self._kept.get(path)
+            if kept is None:
+                return
+            kept.users -= 1
+            if kept.users > 0:
+                return
+            for other in [p for p, k in self._kept.items() if k.users == 0 and p != path]:
+                stopped = self._stop(other) or stopped
+            if kept.opened >= self.keep:
+                stopped = self._stop(path) or stopped
+        if stopped:
+            release_heap()
+
+    def stop_idle(self) -> None:
+        """Stop every client no namespace uses (and give the C heap back)."""
+        with self._lock:
+            for path in [path for path, kept in self._kept.items() if kept.users == 0]:
+                self._stop(path)
+        release_heap()
+
+    def running(self) -> int:
+        """How many clients run."""
+        return len(self._kept)
+
+    def _stop(self, path: str) -> bool:
+        kept = self._kept.pop(path)
+        kept.client.close()  # type: ignore[attr-defined]  # Chroma's Client has it, its ClientAPI does not say so
+        return True
+
+
+def _identity(path: str) -> tuple[int, int] | None:
+    try:
+        found = os.stat(os.path.join(path, "chroma.sqlite3"))
+    except OSError:
+        return None
+    return found.st_dev, found.st_ino
+
+
+#: The process's embedded clients (every namespace opened on a data directory goes through it).
+EMBEDDED = EmbeddedClients()
 
 
 def index_directories(root: str, collection: UUID) -> list[str]:

@@ -11,9 +11,10 @@ from it, and writing it again replaces it: one episode, one record, however ofte
 
 Cost (a study unit: open, count, search, write, verdict, count, drop, close; about 20 ms of CPU): all
 but 2 ms is inside Chroma's calls and their threads, one call per step and none redundant
-(`chroma` keeps the Python around them lean). A client is opened and stopped for each namespace on
-purpose: one kept across dropped namespaces grows 2.7 MB each (Chroma caches their indexes until it
-stops).
+(`chroma` keeps the Python around them lean). Embedded, the namespaces of a data directory share one
+client, kept running between them and started afresh every few namespaces (`chroma.EMBEDDED`):
+Chroma keeps what each collection held (2.7 MB) until its client stops, and a client started for
+each namespace cost a unit 7 ms more.
 """
 
 from __future__ import annotations
@@ -33,8 +34,7 @@ from chromadb.api.models.Collection import Collection
 from chromadb.api.shared_system_client import SharedSystemClient
 from chromadb.api.types import Documents, EmbeddingFunction
 
-from robocog.server.memory.chroma import client_settings, index_directories, tree_size
-from robocog.server.memory.chroma import release_heap as release_heap  # where the server imports it from
+from robocog.server.memory.chroma import EMBEDDED, client_settings, index_directories, tree_size
 from robocog.server.memory.embedding import MiniLMEmbeddingFunction
 from robocog.shared.limits import DESCRIPTION_CHARS, EPISODE_ID_CHARS, NAME_CHARS, SUMMARY_CHARS, truncate
 from robocog.shared.memory import MemoryHit, MemoryRecord
@@ -116,26 +116,30 @@ class EpisodicMemory:
         self._ef: EmbeddingFunction[Documents] = (
             MiniLMEmbeddingFunction() if embedding_function is None else embedding_function
         )
-        settings = client_settings()
         self._client: ClientAPI
         self._url = url
         if url is not None:
             host, port, ssl = parse_chroma_url(url)
             try:
-                self._client = chromadb.HttpClient(host=host, port=port, ssl=ssl, settings=settings)
+                self._client = chromadb.HttpClient(host=host, port=port, ssl=ssl, settings=client_settings())
             except Exception as e:
                 raise ConnectionError(f"cannot reach the Chroma server at {url}: {e}") from e
             self.location = url
         else:
             path = Path(data_dir) if data_dir is not None else default_data_dir()
             path.mkdir(parents=True, exist_ok=True)
-            self._client = chromadb.PersistentClient(path=str(path), settings=settings)
             self.location = str(path)
-        self._collection: Collection = self._client.get_or_create_collection(
-            name,
-            configuration={"hnsw": {"space": "cosine"}},
-            embedding_function=cast(Any, self._ef),  # Chroma's annotation is narrower than its protocol
-        )
+            self._client = EMBEDDED.acquire(self.location)  # kept running between namespaces
+        self._closed = False
+        try:
+            self._collection: Collection = self._client.get_or_create_collection(
+                name,
+                configuration={"hnsw": {"space": "cosine"}},
+                embedding_function=cast(Any, self._ef),  # Chroma's annotation is narrower than its protocol
+            )
+        except BaseException:
+            self.close()
+            raise
 
     # -- writing ------------------------------------------------------------------------------
 
@@ -288,7 +292,15 @@ class EpisodicMemory:
     # -- lifecycle ----------------------------------------------------------------------------
 
     def close(self) -> None:
-        """Release the client (for embedded memory, the database files once no one else uses them)."""
+        """Release the client (closing it again does nothing). Embedded, the client goes back to the
+        process's `EMBEDDED` clients, which stop it once it has served its turn; on a Chroma server,
+        the connection pools close once no one else uses them."""
+        if self._closed:
+            return
+        self._closed = True
+        if self._url is None:
+            EMBEDDED.release(self.location)
+            return
         client = self._client
         # Chroma's HTTP client (and its internal admin client) never close their connection pools:
         # close each pool whose shared system is gone after close(), i.e. that no one else uses.
