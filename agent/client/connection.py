@@ -73,6 +73,9 @@ class Robot:
     requires: dict[str, list[str]] = field(default_factory=dict)  # task id -> tasks that must succeed first
     catalogue: dict[str, dict[str, Any]] = field(default_factory=dict)  # task id -> its robocog://tasks entry
     contract: str | None = None  # the MCP contract version the server announces in its instructions
+    #: Whether the world the last reset_world made has furniture that opens (its answer lists some);
+    #: None while no reset through the harness's controls has answered.
+    furniture: bool | None = None
 
     _prompts: dict[str, str] = field(default_factory=dict)
 

@@ -216,12 +216,16 @@ async def run_episode(
 STATE_URI = "robocog://world/state"
 
 
-async def world_has_furniture(client: Client, tools: list[Tool]) -> bool:
+async def world_has_furniture(client: Client, tools: list[Tool], *, known: bool | None = None) -> bool:
     """Whether to offer open and close: only in a world with furniture that opens (its ground truth
     lists some), so a model in a world without (the paper's household, the robocog-v1 suite) is offered
-    what it was before they existed. A server whose state cannot be read keeps what it publishes."""
+    what it was before they existed. A server whose state cannot be read keeps what it publishes.
+    `known`: what the caller learnt of this world already (the answer of the reset that made it), in
+    place of reading its state."""
     if not any(t.name in FURNITURE_TOOLS for t in tools):
         return False
+    if known is not None:
+        return known
     try:
         result = await client.read_resource(STATE_URI)
         state = json.loads("".join(getattr(c, "text", "") for c in result.contents))

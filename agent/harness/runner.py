@@ -188,8 +188,19 @@ class Runner:
 
     @staticmethod
     def controls(robot: Robot) -> EvalControls:
-        """The eval controls on `robot`'s connection (a failure is the server's: `ServerConnectionError`)."""
-        return EvalControls(mcp_call(robot.client, ServerConnectionError))
+        """The eval controls on `robot`'s connection (a failure is the server's: `ServerConnectionError`).
+        What a reset answers (the world it made) tells whether that world has furniture that opens:
+        the robot remembers it for the attempts that follow, which need not read the world's state."""
+        call = mcp_call(robot.client, ServerConnectionError)
+
+        async def remembering(tool: str, arguments: dict[str, Any]) -> dict[str, Any]:
+            robot.furniture = None if tool == "reset_world" else robot.furniture  # not known while it runs
+            answer = await call(tool, arguments)
+            if tool == "reset_world":
+                robot.furniture = bool(answer.get("furniture"))
+            return answer
+
+        return EvalControls(remembering)
 
     async def requirements(self) -> dict[str, list[str]]:
         """The tasks' requirements, from the catalogue of a server like the workers'."""
@@ -234,7 +245,9 @@ class Runner:
             vision=spec.vision,
         )
         system_prompt = await robot.prompt(self.protocol.system_prompt)
-        furniture = self.protocol.offers_furniture and await world_has_furniture(robot.client, robot.tools)
+        furniture = self.protocol.offers_furniture and await world_has_furniture(
+            robot.client, robot.tools, known=robot.furniture
+        )
         base = {
             "model": spec.name,
             "trial": trial,

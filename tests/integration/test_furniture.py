@@ -155,3 +155,32 @@ async def test_an_episode_told_whether_there_is_furniture_does_not_ask_the_world
         offered[told] = set(started.tools) & FURNITURE_TOOLS
     assert asked == [True]  # only the episode that was not told asked
     assert offered == {None: FURNITURE_TOOLS, False: set(), True: FURNITURE_TOOLS}
+
+
+async def test_the_harness_learns_from_a_reset_whether_its_world_has_furniture(tmp_path: Path) -> None:
+    """What reset_world answers is the world it made: the harness's controls remember whether it has
+    furniture that opens, as reading its state would tell, and the attempts after it read nothing."""
+    from robocog.agent.client.connection import Robot
+    from robocog.agent.client.loop import world_has_furniture
+    from robocog.agent.harness.runner import Runner
+
+    for scene, expected in ((Path("kitchen_plus"), True), (None, False)):
+        config = SessionConfig(scene=scene, data_dir=tmp_path / f"memory-{expected}")
+        async with Client(build_server(config, profile="eval"), raise_exceptions=True) as client:
+            tools = (await client.list_tools()).tools
+            robot = Robot(client=client, tools=tools, system_prompt="", tasks={}, label="in-memory")
+            assert robot.furniture is None
+            await Runner.controls(robot).reset_world(seed=0)
+            assert robot.furniture is expected
+            assert await world_has_furniture(client, tools) is expected  # the state read agrees
+
+            reads: list[str] = []
+            real = client.read_resource
+
+            async def counted(uri: Any, real: Any = real, reads: list[str] = reads) -> Any:
+                reads.append(str(uri))
+                return await real(uri)
+
+            client.read_resource = counted
+            assert await world_has_furniture(client, tools, known=robot.furniture) is expected
+            assert reads == []
