@@ -25,6 +25,7 @@ from contextlib import asynccontextmanager, contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO, cast
 
+from robocog.agent.client.lean import McpClient
 from robocog.shared.paper import T1_SEQUENCE, T2_SEQUENCE, Action, action_args
 
 if TYPE_CHECKING:
@@ -248,7 +249,7 @@ async def in_process_robot(data_dir: Path) -> AsyncIterator[Robot]:
         yield Robot(client, tools, prompt.messages[0].content.text, {}, "in-memory")  # type: ignore[union-attr]
 
 
-async def call_ok(client: Client, tool: str, **arguments: Any) -> dict[str, Any]:
+async def call_ok(client: McpClient, tool: str, **arguments: Any) -> dict[str, Any]:
     """Call a tool that must succeed; its structured result."""
     result = await client.call_tool(tool, arguments)
     assert not result.is_error, result.content

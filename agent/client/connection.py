@@ -15,13 +15,14 @@ from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import IO, Any, TextIO, cast
+from typing import IO, Any, Literal, TextIO, cast
 
 from mcp import Client
 from mcp.client.stdio import StdioServerParameters
 from mcp.shared.exceptions import MCPError
 from mcp_types import CONNECTION_CLOSED, Tool
 
+from robocog.agent.client.lean import McpClient
 from robocog.shared import __version__
 from robocog.shared.errors import ServerConnectionError
 from robocog.shared.protocol import CONTRACT_VERSION_PATTERN, FLEET_FULL
@@ -47,9 +48,10 @@ class ServerSpec:
     env: dict[str, str] = field(default_factory=dict)
     #: The bearer token of an HTTP server started with --auth-token (default: $ROBOCOG_AUTH_TOKEN).
     auth_token: str | None = field(default_factory=lambda: os.environ.get("ROBOCOG_AUTH_TOKEN") or None)
-    #: The server at a plain-HTTP `url` answers every POST with one JSON body (a fleet the harness
-    #: started with --json-response): robocog's lean transport (`json_http`) in place of the SDK's.
-    json_answers: bool = False
+    #: A server the harness started itself (a worker's `robocog-server`, or a fleet it started with
+    #: --json-response, whose every POST is answered with one JSON body): robocog's lean client
+    #: (`lean`) in place of the SDK's.
+    lean: bool = False
 
     @classmethod
     def from_options(cls, url: str | None, server_cmd: str | None, extra_args: list[str] | None = None) -> ServerSpec:
@@ -65,7 +67,7 @@ class ServerSpec:
 class Robot:
     """A connected MCP client plus what the run needs from the server."""
 
-    client: Client
+    client: McpClient  # the SDK's `Client`, or robocog's lean one (`ServerSpec.lean`)
     tools: list[Tool]
     system_prompt: str
     tasks: dict[str, str]  # task id -> prompt (from robocog://tasks)
@@ -160,22 +162,29 @@ async def connect(spec: ServerSpec) -> AsyncIterator[Robot]:
     A spawned server's stderr goes to a log file, so its start-up chatter stays off the terminal;
     if the server fails, the error quotes the end of that log.
     """
-    from mcp.client.stdio import stdio_client
-
     log: ServerLog | None = None
-    if spec.url and spec.json_answers and spec.url.lower().startswith("http://"):
-        from robocog.agent.client.json_http import json_http_client
+    session: Any
+    if spec.lean and spec.url and spec.url.lower().startswith("http://"):
+        from robocog.agent.client.json_http import json_http_channel
 
-        target: Any = json_http_client(spec.url, spec.auth_token, keepalive_s=CLIENT_KEEP_ALIVE_S)
+        session = _lean_session(json_http_channel(spec.url, spec.auth_token, keepalive_s=CLIENT_KEEP_ALIVE_S), spec)
     elif spec.url:
-        target = _http_transport(spec.url, spec.auth_token)
+        session = _session(_http_transport(spec.url, spec.auth_token), spec)
+    elif spec.lean and os.name == "posix":  # a process group of its own to end (see `lean.stdio_channel`)
+        from robocog.agent.client.lean import stdio_channel
+
+        log = ServerLog("robocog-server-")
+        argv = [*spec.command, *spec.extra_args]
+        session = _lean_session(stdio_channel(argv, spawn_env(spec.env), log.file, spec.label), spec)
     else:
+        from mcp.client.stdio import stdio_client
+
         command, *args = spec.command
         params = StdioServerParameters(command=command, args=[*args, *spec.extra_args], env=spawn_env(spec.env))
         log = ServerLog("robocog-server-")
-        target = stdio_client(params, errlog=cast(TextIO, log.file))  # a text file, in a wrapper that deletes it
+        session = _session(stdio_client(params, errlog=cast(TextIO, log.file)), spec)  # a text file, deleted after
     try:
-        async with _session(target, spec) as robot:
+        async with session as robot:
             yield robot
     except Exception as exc:
         if log is None or isinstance(exc, ServerConnectionError):
@@ -222,6 +231,7 @@ async def _http_transport(url: str, token: str | None) -> AsyncIterator[Any]:
 
 @asynccontextmanager
 async def _session(target: Any, spec: ServerSpec) -> AsyncIterator[Robot]:
+    """The robot over the SDK's `Client` on `target` (a transport)."""
     from mcp_types import Implementation
 
     from robocog.agent.client.output_schemas import share_validators
@@ -232,27 +242,48 @@ async def _session(target: Any, spec: ServerSpec) -> AsyncIterator[Robot]:
     async with Client(target, client_info=Implementation(name="robocog", version=__version__), mode=mode) as client:
         tools = (await client.list_tools()).tools
         share_validators(client.session, tools)  # compiled once per process, not per session
-        prompt = await client.get_prompt("robot_system")
-        system_prompt = "\n".join(getattr(m.content, "text", "") for m in prompt.messages)
-        tasks: dict[str, str] = {}
-        requires: dict[str, list[str]] = {}
-        entries: dict[str, dict[str, Any]] = {}
-        try:
-            catalogue = await client.read_resource("robocog://tasks")
-            for item in json.loads(getattr(catalogue.contents[0], "text", "[]")):
-                tasks[item["id"]] = item["prompt"]
-                requires[item["id"]] = [str(r) for r in item.get("requires") or []]
-                entries[item["id"]] = item
-        except Exception:  # a server without the catalogue can still be driven
-            tasks, requires, entries = {}, {}, {}
-        announced = CONTRACT_VERSION_PATTERN.search(client.instructions or "")
-        yield Robot(
-            client=client,
-            tools=tools,
-            system_prompt=system_prompt,
-            tasks=tasks,
-            label=spec.label,
-            requires=requires,
-            catalogue=entries,
-            contract=announced.group(1) if announced else None,
-        )
+        yield await _robot(client, tools, spec)
+
+
+@asynccontextmanager
+async def _lean_session(channel: Any, spec: ServerSpec) -> AsyncIterator[Robot]:
+    """The robot over robocog's lean client on `channel` (an async context manager that opens it): the
+    same handshake as the SDK's, 2025-11-25 over HTTP, 2026-07-28 over stdio (see `_session`)."""
+    from mcp_types import Implementation
+
+    from robocog.agent.client.lean import LeanClient
+
+    info = Implementation(name="robocog", version=__version__)
+    era: Literal["modern", "legacy"] = "legacy" if spec.url else "modern"
+    async with channel as opened, LeanClient(opened, era=era, client_info=info, name=spec.label) as client:
+        tools = (await client.list_tools()).tools
+        yield await _robot(client, tools, spec)
+
+
+async def _robot(client: Any, tools: list[Tool], spec: ServerSpec) -> Robot:
+    """What the run needs from the server behind `client`: the system prompt, the task catalogue, the
+    contract version its instructions announce."""
+    prompt = await client.get_prompt("robot_system")
+    system_prompt = "\n".join(getattr(m.content, "text", "") for m in prompt.messages)
+    tasks: dict[str, str] = {}
+    requires: dict[str, list[str]] = {}
+    entries: dict[str, dict[str, Any]] = {}
+    try:
+        catalogue = await client.read_resource("robocog://tasks")
+        for item in json.loads(getattr(catalogue.contents[0], "text", "[]")):
+            tasks[item["id"]] = item["prompt"]
+            requires[item["id"]] = [str(r) for r in item.get("requires") or []]
+            entries[item["id"]] = item
+    except Exception:  # a server without the catalogue can still be driven
+        tasks, requires, entries = {}, {}, {}
+    announced = CONTRACT_VERSION_PATTERN.search(client.instructions or "")
+    return Robot(
+        client=client,
+        tools=tools,
+        system_prompt=system_prompt,
+        tasks=tasks,
+        label=spec.label,
+        requires=requires,
+        catalogue=entries,
+        contract=announced.group(1) if announced else None,
+    )

@@ -17,9 +17,9 @@ import time
 from dataclasses import dataclass
 from typing import Any, Literal, cast
 
-from mcp import Client
 from mcp_types import RequestParamsMeta, Tool
 
+from robocog.agent.client.lean import McpClient
 from robocog.agent.client.model import IMAGE_OMITTED, assistant_message, complete, image_message, usage
 from robocog.agent.client.settings import AgentSettings
 from robocog.agent.client.trace_sinks import Trace
@@ -96,7 +96,7 @@ def _pictures(result: Any) -> list[tuple[str, str]]:
 
 
 async def run_episode(
-    client: Client,
+    client: McpClient,
     task: str,
     settings: AgentSettings,
     trace: Trace,
@@ -216,7 +216,7 @@ async def run_episode(
 STATE_URI = "robocog://world/state"
 
 
-async def world_has_furniture(client: Client, tools: list[Tool], *, known: bool | None = None) -> bool:
+async def world_has_furniture(client: McpClient, tools: list[Tool], *, known: bool | None = None) -> bool:
     """Whether to offer open and close: only in a world with furniture that opens (its ground truth
     lists some), so a model in a world without (the paper's household, the robocog-v1 suite) is offered
     what it was before they existed. A server whose state cannot be read keeps what it publishes.
@@ -234,7 +234,7 @@ async def world_has_furniture(client: Client, tools: list[Tool], *, known: bool 
     return not isinstance(state, dict) or bool(state.get("furniture"))
 
 
-async def _describe(client: Client) -> str:
+async def _describe(client: McpClient) -> str:
     """The environment description the paper's task message carries (a resource: not a tool call)."""
     try:
         result = await client.read_resource(DESCRIPTION_URI)
@@ -262,7 +262,7 @@ def _sendable(message: dict[str, Any]) -> dict[str, Any]:
 
 
 async def _execute(
-    client: Client, call: dict[str, Any], names: set[str], settings: AgentSettings, trace: Trace, invocation: int
+    client: McpClient, call: dict[str, Any], names: set[str], settings: AgentSettings, trace: Trace, invocation: int
 ) -> tuple[tuple[bool, str] | None, str, list[Picture]]:
     """Run one tool call; returns ((believed success, summary) if it ended the task, text for the model,
     the pictures to show it: none unless it takes images, when the text says so instead)."""

@@ -96,3 +96,50 @@ class FastValidator:
 
 def _no_retrieval(uri: str) -> Any:
     raise ValueError(f"{uri}: a tool's output schema may only refer within itself")
+
+
+# --- for robocog's lean client (`lean`), which has no SDK session to give validators to ----------------
+
+_checks: OrderedDict[str, OutputCheck] = OrderedDict()
+
+
+class OutputCheck:
+    """A tool's output schema, compiled once per process: `jsonschema-rs` answers whether a result
+    conforms, and only for one that does not does `jsonschema` find the error the SDK would name."""
+
+    def __init__(self, schema: dict[str, Any]) -> None:
+        self.schema = schema
+        try:
+            self.fast: Any = jsonschema_rs.validator_for(schema, retriever=_no_retrieval, validate_formats=False)
+        except (ValueError, jsonschema_rs.ReferencingError):
+            self.fast = None
+
+    @classmethod
+    def of(cls, schema: dict[str, Any]) -> OutputCheck:
+        """The process's check for `schema` (compiled on first use, then shared by every session)."""
+        key = json.dumps(schema, sort_keys=True)
+        with _lock:
+            known = _checks.get(key)
+            if known is not None:
+                _checks.move_to_end(key)
+                return known
+        made = cls(schema)
+        with _lock:
+            _checks[key] = made
+            while len(_checks) > LIMIT:
+                _checks.popitem(last=False)
+        return made
+
+    def __call__(self, tool: str, structured: Any, *, present: bool) -> None:
+        """Raise what the SDK raises for a result of `tool` whose structured content (`present`: sent
+        at all) does not conform: `RuntimeError`, naming the tool and the error."""
+        if structured is None and not present:
+            raise RuntimeError(f"Tool {tool} has an output schema but did not return structured content")
+        if self.fast is not None and self.fast.is_valid(structured):
+            return
+        from jsonschema import exceptions, validators
+
+        validator = validators.validator_for(self.schema)(self.schema)
+        error = exceptions.best_match(validator.iter_errors(structured))
+        if error is not None:
+            raise RuntimeError(f"Invalid structured content returned by tool {tool}: {error}") from error

@@ -102,13 +102,16 @@ class Runner:
         self.progress.advance(row=row)
 
     def spec(self, worker: int) -> ServerSpec:
-        if self.urls:  # a fleet this study started answers in JSON: the lean transport
-            json_answers = self.fleets is not None and self.fleets.json_response
-            return ServerSpec(url=self.urls[worker % len(self.urls)], json_answers=json_answers)
+        """How worker `worker` reaches its robot. The servers this study starts itself (its workers'
+        `robocog-server`, its own fleets, which answer in JSON) are reached through robocog's lean
+        client; a server given by its command line or its address, through the SDK's."""
+        if self.urls:
+            lean = self.fleets is not None and self.fleets.json_response
+            return ServerSpec(url=self.urls[worker % len(self.urls)], lean=lean)
         args = ["--profile", "eval", *memory_args(self.config.server_args, self.work_dir / f"worker-{worker}")]
         if self.server_command:
             return ServerSpec(command=list(self.server_command), extra_args=args)
-        return ServerSpec(extra_args=args)
+        return ServerSpec(extra_args=args, lean=True)
 
     # --- one unit: a model and a trial, through all memory iterations ----------------------------
 

@@ -172,19 +172,26 @@ async def _reuse(url: str, pid: int) -> dict[str, object]:
 
 async def _json_calls(url: str, pid: int) -> dict[str, object]:
     """A `--json-response` server (as the harness starts its fleets): the CPU and time of REUSE_CALLS
-    calls through robocog's SDK path and through the lean transport a study's fleets use
-    (`json_http`), alternating in rounds, to set beside `_reuse`'s event-stream answers."""
+    calls through robocog's SDK path and through the lean client a study's fleets use (`lean` over
+    `json_http`), alternating in rounds, to set beside `_reuse`'s event-stream answers."""
+    from mcp_types import Implementation
+
     from robocog.agent.client.connection import _http_transport
-    from robocog.agent.client.json_http import json_http_client
+    from robocog.agent.client.json_http import json_http_channel
+    from robocog.agent.client.lean import LeanClient
     from robocog.agent.client.output_schemas import share_validators
 
     totals = {way: [0.0, 0.0, 0.0] for way in ("robocog", "lean")}
+    info = Implementation(name="robocog", version="bench")
     async with (
         Client(_http_transport(url, None), mode="legacy") as ours,
-        Client(json_http_client(url), mode="legacy") as lean,
+        json_http_channel(url) as channel,
+        LeanClient(channel, era="legacy", client_info=info, name=url) as lean,
     ):
-        for client in (ours, lean):  # as `connect` does: the tools listed, their validators shared
-            share_validators(client.session, (await client.list_tools()).tools)
+        # as `connect` does: the tools listed, their validators shared
+        share_validators(ours.session, (await ours.list_tools()).tools)
+        await lean.list_tools()
+        for client in (ours, lean):
             await client.call_tool("look_around", {})
         for _ in range(REUSE_ROUNDS):
             for way, client in (("robocog", ours), ("lean", lean)):

@@ -294,17 +294,17 @@ async def test_a_fleet_in_two_processes_behind_one_address(tmp_path: Path) -> No
     assert "2 robots in 2 processes" in log and "fleet process 2/2 ready" in log
 
 
-async def test_the_lean_transport_drives_a_json_fleet_as_the_sdk_s_does_and_frees_its_robot(tmp_path: Path) -> None:
-    """robocog's lean transport (`json_http`, a study's own fleets) against a real `--json-response`
-    server of one robot: the same answers as the SDK's client, and its session's DELETE frees the
-    robot for the next driver at once (a session left open would hold it)."""
+async def test_the_lean_client_drives_a_json_fleet_as_the_sdk_s_does_and_frees_its_robot(tmp_path: Path) -> None:
+    """robocog's lean client (`lean` over `json_http`, a study's own fleets) against a real
+    `--json-response` server of one robot: the same answers as the SDK's client, and its session's
+    DELETE frees the robot for the next driver at once (a session left open would hold it)."""
     from robocog.agent.client.connection import ServerSpec, connect
 
     args = ["--profile", "eval", "--robots", "1", "--max-sessions", "4", "--data-dir", str(tmp_path / "memory")]
     with http_server(tmp_path / "server.log", *args, "--json-response") as url:
         answers = []
-        for json_answers in (True, False, True):
-            async with connect(ServerSpec(url=url, json_answers=json_answers)) as robot:
+        for lean in (True, False, True):
+            async with connect(ServerSpec(url=url, lean=lean)) as robot:
                 assert {"move_to", "grab", "reset_world", "check_task"} <= {t.name for t in robot.tools}
                 assert robot.system_prompt and robot.tasks and robot.contract
                 await robot.claim()

@@ -1,7 +1,7 @@
-"""robocog's lean streamable HTTP transport (`robocog.agent.client.json_http`) under the SDK's own
-`Client`, against a raw HTTP/1.1 server on loopback that plays an MCP server answering in JSON: the
-session's headers on every request, one connection, the `DELETE` at the end, every error status as
-the request's error, and cancellation in both eras."""
+"""robocog's lean client over streamable HTTP (`robocog.agent.client.lean` on `json_http`'s channel),
+against a raw HTTP/1.1 server on loopback that plays an MCP server answering in JSON: the session's
+headers on every request, one connection, the `DELETE` at the end, every error status as the
+request's error, and a call given up (its timeout) told to the server."""
 
 from __future__ import annotations
 
@@ -11,19 +11,18 @@ from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from typing import Any
 
-import anyio
 import pytest
-from mcp import Client
-from mcp.shared.message import ClientMessageMetadata, SessionMessage
-from mcp_types import JSONRPCNotification, JSONRPCRequest
+from mcp.shared.exceptions import MCPError
+from mcp_types import CONNECTION_CLOSED, REQUEST_TIMEOUT, Implementation
 
-from robocog.agent.client.connection import ServerSpec, connect, leaf_message
-from robocog.agent.client.json_http import JsonHttpLink, json_http_streams
+from robocog.agent.client.connection import ServerSpec, connect, leaf_message, unreachable
+from robocog.agent.client.json_http import JsonHttpLink, json_http_channel
+from robocog.agent.client.lean import LeanClient
 from tests.helpers import served
 
 pytestmark = pytest.mark.anyio
 
-LEGACY, MODERN = "2025-11-25", "2026-07-28"
+LEGACY = "2025-11-25"
 SESSION = "s-123"
 #: What `connect` asks for besides `initialize`, answered (an empty catalogue: no resources).
 TOOLS = ("fine", "bad", "gone", "broken", "moved", "accepted", "stream", "garbled", "slow", "refused")
@@ -119,9 +118,14 @@ class FakeServer:
 
 
 @asynccontextmanager
-async def session(url: str, link: JsonHttpLink | None = None) -> AsyncIterator[Client]:
-    async with Client(json_http_streams(link or JsonHttpLink(url, "tok", keepalive_s=15)), mode="legacy") as client:
-        yield client
+async def session(url: str, link: JsonHttpLink | None = None) -> AsyncIterator[LeanClient]:
+    link = link or JsonHttpLink(url, "tok", keepalive_s=15)
+    info = Implementation(name="robocog", version="test")
+    try:
+        async with LeanClient(link, era="legacy", client_info=info, name=url) as client:
+            yield client
+    finally:
+        await link.close(terminate=True)
 
 
 async def test_every_request_carries_the_session_over_one_connection_and_the_session_is_deleted() -> None:
@@ -135,8 +139,13 @@ async def test_every_request_carries_the_session_over_one_connection_and_the_ses
                 assert not called.is_error and called.content[0].text == "done"  # type: ignore[union-attr]
         assert link.connections_opened == 1
     assert server.methods() == ["initialize", "notifications/initialized", "tools/list", *["tools/call"] * 3, "DELETE"]
-    (first, init_headers, _), *later = server.seen
+    (first, init_headers, init), *later = server.seen
     assert first == "POST /mcp HTTP/1.1" and "mcp-session-id" not in init_headers
+    assert init is not None and init["params"] == {
+        "protocolVersion": LEGACY,
+        "capabilities": {},
+        "clientInfo": {"name": "robocog", "version": "test"},
+    }
     for _, headers, _ in later:  # every later request: the session, its version, the token
         assert headers["mcp-session-id"] == SESSION and headers["authorization"] == "Bearer tok"
         assert headers["mcp-protocol-version"] == LEGACY
@@ -163,7 +172,7 @@ async def test_an_answer_that_is_not_a_result_is_the_request_s_error_and_the_ses
 ) -> None:
     server = FakeServer()
     async with served(server) as url, session(url) as client:
-        with pytest.raises(Exception, match=says):
+        with pytest.raises(MCPError, match=says):
             await client.call_tool(tool, {})
         assert not (await client.call_tool("fine", {})).is_error  # the next call is answered as before
 
@@ -172,62 +181,56 @@ async def test_a_refused_token_ends_the_connection_with_the_sentence_that_says_w
     server = FakeServer()
     async with served(server) as url:
         with pytest.raises(BaseException) as caught:
-            async with connect(ServerSpec(url=url, auth_token=None, json_answers=True)) as robot:
+            async with connect(ServerSpec(url=url, auth_token=None, lean=True)) as robot:
                 await robot.client.call_tool("refused", {})
     assert "ServerConnectionError" in leaf_message(caught.value)
     assert "refused the connection: it needs a bearer token (set ROBOCOG_AUTH_TOKEN" in leaf_message(caught.value)
 
 
-@pytest.mark.parametrize("json_answers", [True, False])
-async def test_the_spec_says_which_transport_connects(json_answers: bool) -> None:
+@pytest.mark.parametrize("lean", [True, False])
+async def test_the_spec_says_which_client_connects(lean: bool) -> None:
     server = FakeServer()
-    async with served(server) as url, connect(ServerSpec(url=url, json_answers=json_answers)) as robot:
+    async with served(server) as url, connect(ServerSpec(url=url, lean=lean)) as robot:
         assert robot.system_prompt == "You drive a robot." and robot.tasks == {}
+        assert isinstance(robot.client, LeanClient) is lean
     agents = {headers.get("user-agent", "") for _, headers, _ in server.seen}
-    assert any("httpx" in agent for agent in agents) is not json_answers  # the SDK's client is httpx
+    assert any("httpx" in agent for agent in agents) is not lean  # the SDK's client is httpx
 
 
-async def pump_one(url: str, version: str, server: FakeServer) -> bool:
-    """A request sent at `version`, then its cancellation, straight through the link's pump; whether
-    the request's POST was closed by then."""
-    link = JsonHttpLink(url, None, keepalive_s=15)
-    up_writer, up = anyio.create_memory_object_stream[SessionMessage | Exception](10)
-    down, down_reader = anyio.create_memory_object_stream[SessionMessage](0)
-    stamp = ClientMessageMetadata(headers={"mcp-protocol-version": version})
-    request = JSONRPCRequest(jsonrpc="2.0", id=7, method="tools/call", params={"name": "slow"})
-    cancel = JSONRPCNotification(jsonrpc="2.0", method="notifications/cancelled", params={"requestId": 7})
-    try:
-        async with anyio.create_task_group() as tg, up_writer, up:
-            tg.start_soon(link.pump, down_reader, up_writer, tg)
-            await down.send(SessionMessage(request, metadata=stamp))
-            while not any(m and m.get("id") == 7 for _, _, m in server.seen):
-                await anyio.sleep(0.01)
-            await down.send(SessionMessage(cancel, metadata=stamp))
-            await down.aclose()
-            with anyio.fail_after(5):
-                if version == MODERN:
-                    await server.dropped.wait()
-                else:
-                    while "notifications/cancelled" not in server.methods():
-                        await anyio.sleep(0.01)
-                    await anyio.sleep(0.2)  # time enough for a wrongly closed POST to show
-            dropped = server.dropped.is_set()
-            tg.cancel_scope.cancel()
-    finally:
-        await link.close(terminate=False)
-    return dropped
-
-
-async def test_at_2026_a_cancellation_closes_the_request_s_post_and_sends_no_frame() -> None:
+async def test_a_call_given_up_is_told_to_the_server_and_the_session_goes_on() -> None:
     server = FakeServer()
-    async with served(server) as url:
-        assert await pump_one(url, MODERN, server)
-    assert "notifications/cancelled" not in server.methods()
-
-
-async def test_below_2026_a_cancellation_is_posted_as_its_frame() -> None:
-    server = FakeServer()
-    async with served(server) as url:
-        assert not await pump_one(url, LEGACY, server), "below 2026 the POST stays open: the frame is the signal"
+    async with served(server) as url, session(url) as client:
+        with pytest.raises(MCPError) as timed_out:
+            await client.call_tool("slow", {}, read_timeout_seconds=0.3)
+        assert timed_out.value.error.code == REQUEST_TIMEOUT
+        assert not (await client.call_tool("fine", {})).is_error
     sent = [m for _, _, m in server.seen if m and m.get("method") == "notifications/cancelled"]
-    assert sent == [{"jsonrpc": "2.0", "method": "notifications/cancelled", "params": {"requestId": 7}}]
+    slow = next(m for _, _, m in server.seen if m and m.get("params", {}).get("name") == "slow")
+    assert sent == [
+        {
+            "jsonrpc": "2.0",
+            "method": "notifications/cancelled",
+            "params": {"requestId": slow["id"], "reason": "timed out after 0.3s"},
+        }
+    ]
+
+
+async def test_a_server_that_cannot_be_reached_fails_the_request_not_the_session() -> None:
+    async with served(FakeServer()) as url:
+        pass  # the port is closed again
+    link = JsonHttpLink(url, None, keepalive_s=15)
+    try:
+        answer = await link.request({"jsonrpc": "2.0", "id": 1, "method": "tools/list"})
+    finally:
+        await link.close(terminate=True)
+    assert answer["id"] == 1 and answer["error"]["code"] == CONNECTION_CLOSED
+    assert answer["error"]["message"].startswith(f"the robot server at {url} is unreachable: ")
+    assert unreachable(MCPError(**answer["error"]))
+
+
+async def test_the_channel_deletes_its_session_on_leaving() -> None:
+    server = FakeServer()
+    async with served(server) as url, json_http_channel(url) as link:
+        await link.request({"jsonrpc": "2.0", "id": 1, "method": "initialize", "params": {"protocolVersion": LEGACY}})
+        assert link.session_id == SESSION and link.protocol_version == LEGACY
+    assert server.methods() == ["initialize", "DELETE"]
