@@ -234,3 +234,90 @@ async def test_the_channel_deletes_its_session_on_leaving() -> None:
         await link.request({"jsonrpc": "2.0", "id": 1, "method": "initialize", "params": {"protocolVersion": LEGACY}})
         assert link.session_id == SESSION and link.protocol_version == LEGACY
     assert server.methods() == ["initialize", "DELETE"]
+
+
+class Quirky(FakeServer):
+    """The fake server, with answers in each of HTTP/1.1's ways of ending a body, and one that hangs
+    up after answering without saying so (as a server closing an idle kept-alive connection does)."""
+
+    async def tool(
+        self, name: str, request_id: Any, reader: asyncio.StreamReader, writer: asyncio.StreamWriter
+    ) -> None:
+        body = result(request_id, {"content": [{"type": "text", "text": name}], "isError": False})
+        if name == "chunked":
+            half = len(body) // 2
+            chunks = b"".join(b"%x\r\n%s\r\n" % (len(part), part) for part in (body[:half], body[half:]))
+            writer.write(
+                b"HTTP/1.1 200 OK\r\ncontent-type: application/json\r\ntransfer-encoding: chunked\r\n\r\n"
+                + chunks
+                + b"0\r\n\r\n"
+            )
+        elif name == "until_close":  # no length: the body ends with the connection
+            writer.write(b"HTTP/1.1 200 OK\r\ncontent-type: application/json\r\nconnection: close\r\n\r\n" + body)
+            await writer.drain()
+            raise ConnectionError
+        elif name == "hang_up_after":
+            answer(writer, "200 OK", body, content_type="application/json")
+            await writer.drain()
+            raise ConnectionError  # closed, without a `connection: close`
+        elif name == "not_http":
+            writer.write(b"SSH-2.0-OpenSSH_9.2\r\n\r\n")
+        else:
+            await super().tool(name, request_id, reader, writer)
+
+
+@pytest.mark.parametrize("tool", ["chunked", "until_close"])
+async def test_every_way_an_answer_ends_is_read_and_the_next_request_goes_on(tool: str) -> None:
+    server = Quirky()
+    async with served(server) as url:
+        link = JsonHttpLink(url, None, keepalive_s=15)
+        async with session(url, link) as client:
+            called = await client.call_tool(tool, {})
+            assert called.content[0].text == tool  # type: ignore[union-attr]
+            assert not (await client.call_tool("fine", {})).is_error
+        # a connection closed after its answer (said or not) is not used again: one more was opened
+        assert link.connections_opened == (1 if tool == "chunked" else 2)
+
+
+async def test_a_request_is_never_written_twice_on_a_connection_the_server_closed() -> None:
+    """A server that hung up after an answer, without saying so: the next request, on that kept-alive
+    connection, fails as the server's (it might have reached a server that died with it), the one after
+    goes on a new connection, and the server saw each once."""
+    server = Quirky()
+    async with served(server) as url:
+        link = JsonHttpLink(url, None, keepalive_s=15)
+        async with session(url, link) as client:
+            await client.call_tool("hang_up_after", {})
+            with pytest.raises(MCPError, match="is unreachable: ConnectionResetError") as caught:
+                await client.call_tool("fine", {"n": 1})
+            assert unreachable(caught.value)
+            opened = link.connections_opened
+            assert not (await client.call_tool("fine", {"n": 2})).is_error
+            assert link.connections_opened == opened + 1
+    calls = [m["params"] for _, _, m in server.seen if m and m.get("method") == "tools/call"]
+    assert calls == [{"name": "hang_up_after", "arguments": {}}, {"name": "fine", "arguments": {"n": 2}}]
+
+
+async def test_a_connection_idle_past_the_keepalive_is_not_used_again() -> None:
+    server = FakeServer()
+    async with served(server) as url:
+        link = JsonHttpLink(url, None, keepalive_s=0.2)
+        async with session(url, link) as client:
+            await client.call_tool("fine", {})
+            opened = link.connections_opened
+            await asyncio.sleep(0.3)
+            await client.call_tool("fine", {})
+            assert link.connections_opened == opened + 1
+
+
+async def test_an_answer_that_is_not_http_fails_its_request_as_an_unreachable_server() -> None:
+    async with served(Quirky()) as url, session(url) as client:
+        with pytest.raises(MCPError, match=r"is unreachable: ProtocolError: an answer that begins 'SSH-2\.0") as caught:
+            await client.call_tool("not_http", {})
+        assert unreachable(caught.value)
+        assert not (await client.call_tool("fine", {})).is_error
+
+
+def test_the_channel_takes_plain_http_urls_only() -> None:
+    with pytest.raises(ValueError, match="http:// URLs only"):
+        JsonHttpLink("https://127.0.0.1:9/mcp", None, keepalive_s=15)
