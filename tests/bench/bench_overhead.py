@@ -17,7 +17,11 @@ alternating with the other install's; over stdio (a server process per worker) a
 The physics-only CPU is measured by a process of its own running those actions again and again
 while the study runs (the median of the runs that ended within the study's window): this machine's
 speed drifts by a third within minutes and switches between two speeds for seconds at a time, so a
-physics figure measured before or after a study can be a third off the study's own.
+physics figure measured before or after a study can be a third off the study's own. The study (with
+every process it starts) and the physics-only process are pinned to one and the same core (`CORE`):
+each of this machine's two cores switches speed on its own, and a study on one core measured against
+physics on the other read ratios a sixth apart from one round to the next (4 rounds: standard
+deviation 0.12 on a fleet, 0.06 over stdio; pinned to one core, 0.02 and 0.01).
 
 `ROBOCOG_BENCH_AGAINST=/path/to/other/.venv/bin` measures another install's studies too (the previous
 release, say), alternating with this one's, against the same physics-only figure.
@@ -55,6 +59,13 @@ POLL_S = 0.002
 TICKS = os.sysconf("SC_CLK_TCK")
 #: Rounds, each measuring every install's marginal CPU with the physics at the time (see `measure`).
 ROUNDS = 6
+#: The core the study and the physics-only runs share (the last one: the first takes most interrupts).
+CORE = max(os.sched_getaffinity(0))
+
+
+def _on_core() -> None:
+    """In a child about to exec: run on `CORE` only (the children it starts inherit it)."""
+    os.sched_setaffinity(0, {CORE})
 ENV = installed_env()
 
 
@@ -182,6 +193,7 @@ def attempt_cpu_s(
         marks: dict[int, tuple[float, float, dict[str, float]]] = {}  # rows written -> (time, CPU, by part)
         physics = subprocess.Popen(
             [sys.executable, __file__, "--physics"],
+            preexec_fn=_on_core,
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             stderr=subprocess.DEVNULL,
@@ -191,6 +203,7 @@ def attempt_cpu_s(
         assert physics.stdout.readline().strip() == "ready"
         with subprocess.Popen(
             [str(bin_dir / "robocog"), "eval", str(config), "--out", str(rows), "--quiet"],
+            preexec_fn=_on_core,
             stdout=subprocess.DEVNULL,
             stderr=subprocess.PIPE,
             text=True,
