@@ -31,6 +31,7 @@ from typing import Any
 from robocog.agent.policies import faulty
 from robocog.agent.policies import is_offline as is_offline  # re-exported: offline.is_offline
 from robocog.agent.policies.belief import as_dict
+from robocog.agent.policies.memo import Kept
 from robocog.agent.policies.planner import VARIANTS, Call, decide, is_variant
 from robocog.shared.trace import ModelTurn, read_trace
 
@@ -116,9 +117,28 @@ def response(model: str, message: dict[str, Any], prompt_chars: int, cost: float
 _ENCODER = json.JSONEncoder(default=str)
 
 
+#: Conversations measured so far (`prompt_chars`), by the list's id: the list (kept, so no other has
+#: its id), the messages measured (the objects), and their characters.
+_MEASURED: Kept[int, tuple[list[Any], tuple[Any, ...], int]] = Kept(256)
+
+
 def prompt_chars(messages: list[Any]) -> int:
     """The characters of the messages, each written as JSON (`json.dumps(m, default=str)`), summed.
-    The conversation grows by a few messages a turn: a message of text fields only is measured once
+    A conversation grows by a few messages a turn: for a list measured before that still holds the
+    messages measured then (the same objects, or equal ones), only the new ones are measured. (The
+    agent loop never changes a message it holds; a message changed in place after it was measured
+    would not be measured again.)"""
+    known = _MEASURED.get(id(messages))
+    if known is not None and known[0] is messages and tuple(messages[: len(known[1])]) == known[1]:
+        total = known[2] + _chars(messages[len(known[1]) :])
+    else:
+        total = _chars(messages)
+    _MEASURED[id(messages)] = (messages, tuple(messages), total)
+    return total
+
+
+def _chars(messages: list[Any]) -> int:
+    """`prompt_chars` of `messages`, measured afresh: a message of text fields only is measured once
     (`_text_chars`), and the others are encoded at once (a list's JSON is its items' joined by ", "
     within brackets)."""
     total, rest = 0, []

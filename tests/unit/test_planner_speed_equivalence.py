@@ -99,8 +99,14 @@ def test_prompt_chars_is_each_message_as_json_summed() -> None:
     for n in range(len(messages) + 1):
         part = messages[:n]
         assert prompt_chars(part) == sum(len(json.dumps(m, default=str)) for m in part)
-    messages[1]["content"] = "Put the cube on the Kitchen."  # changed in place: measured again
-    assert prompt_chars(messages) == sum(len(json.dumps(m, default=str)) for m in messages)
+    grown: list[Any] = []  # one conversation, growing as the loop grows it: only new messages are measured
+    for m in messages:
+        grown.append(m)
+        assert prompt_chars(grown) == sum(len(json.dumps(m, default=str)) for m in grown)
+    grown[1] = {**grown[1], "content": "Put the cube on the Kitchen."}  # replaced: measured again
+    assert prompt_chars(grown) == sum(len(json.dumps(m, default=str)) for m in grown)
+    del grown[2]  # taken out: measured again
+    assert prompt_chars(grown) == sum(len(json.dumps(m, default=str)) for m in grown)
 
 
 def test_the_history_is_what_the_messages_say_now() -> None:
