@@ -38,8 +38,8 @@ def client_settings() -> Settings:
 #: Namespaces an embedded client opens before it is stopped and started afresh. Chroma keeps what every
 #: collection its client opened held (about 2.7 MB each, dropped or not) until the client stops, so a
 #: client kept for ever would grow with every unit of a study; one started for each namespace cost a
-#: unit about 7 ms of CPU more (its start, its first statements, its stop and the heap trim: the
-#: `memory.namespace_*` figures of `make bench`).
+#: unit more CPU (its start, its first statements, its stop and the heap trim: the `memory.unit.*`
+#: figures of `make bench --only memory`).
 KEEP_NAMESPACES = 8
 
 

@@ -1,7 +1,10 @@
 """Benchmark of embeddings and episodic memory (not a pytest module).
 
 Run: ``.venv/bin/python tests/bench/bench_memory.py``. Targets: search p50 <= 10 ms and
-add p50 <= 20 ms with 10,000 records.
+add p50 <= 20 ms with 10,000 records. And a study unit's memory work (its namespace opened, searched,
+written, given its verdict, counted and dropped) with the data directory's Chroma client kept running
+between namespaces (`chroma.EMBEDDED`) against a client started and stopped for each namespace (as
+before), in alternating rounds, in a process of its own (`--units`).
 """
 
 from __future__ import annotations
@@ -10,6 +13,8 @@ import json
 import os
 import random
 import statistics
+import subprocess
+import sys
 import tempfile
 import time
 from collections.abc import Callable
@@ -116,10 +121,50 @@ def run() -> dict[str, float]:
         writes = [_entry(rng, RECORDS + i) for i in range(WRITES)]
         adds = [_time(partial(memory.add, **e)) for e in writes]
         results["memory.add_p50_ms"], results["memory.add_p95_ms"] = _ms_percentiles(adds)
+    results |= _units_in_child()
     if hasattr(os, "getloadavg"):
         results["host.loadavg_1m_end"] = round(os.getloadavg()[0], 2)
     return results
 
 
+#: Units per round, and rounds, of `units`.
+UNITS, UNIT_ROUNDS = 24, 5
+
+
+def units() -> dict[str, float]:
+    """A unit's memory work, CPU per unit (every thread of the process: Chroma's own included), with
+    the client kept (`keep` of 8) and with one per namespace (`keep` of 1: stopped as each closes)."""
+    from robocog.server.memory import chroma
+
+    spent = {"kept": 0.0, "client_per_namespace": 0.0}
+    with tempfile.TemporaryDirectory() as tmp:
+        for i in range(UNIT_ROUNDS + 1):
+            for way, keep in (("kept", chroma.KEEP_NAMESPACES), ("client_per_namespace", 1)):
+                chroma.EMBEDDED.stop_idle()
+                chroma.EMBEDDED.keep = keep
+                start = time.process_time()
+                for unit in range(UNITS):
+                    with EpisodicMemory(Path(tmp) / way, namespace=f"unit-{i}-{unit}") as memory:
+                        memory.count()
+                        memory.search("Put away all the items into the shelf.")
+                        record = memory.add("Put away all the items.", "success", "Done.", episode=f"{i}-{unit}")
+                        memory.set_verified(record.id, "success")
+                        memory.count()
+                        memory.drop()
+                if i > 0:  # the first round warms up (the embedding model, Chroma's first statements)
+                    spent[way] += time.process_time() - start
+    return {f"memory.unit.{way}_cpu_ms": round(cpu / (UNITS * UNIT_ROUNDS) * 1000, 2) for way, cpu in spent.items()}
+
+
+def _units_in_child() -> dict[str, float]:
+    done = subprocess.run(
+        [sys.executable, __file__, "--units"], capture_output=True, text=True, check=True, timeout=900
+    )
+    figures: dict[str, float] = json.loads(done.stdout.strip().splitlines()[-1])
+    return figures
+
+
 if __name__ == "__main__":
-    print(json.dumps(run(), indent=2))
+    print(
+        json.dumps(units() if sys.argv[1:] == ["--units"] else run(), indent=2 if sys.argv[1:] != ["--units"] else None)
+    )

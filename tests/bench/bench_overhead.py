@@ -59,6 +59,7 @@ POLL_S = 0.002
 TICKS = os.sysconf("SC_CLK_TCK")
 #: Rounds, each measuring every install's marginal CPU with the physics at the time (see `measure`).
 ROUNDS = 6
+ENV = installed_env()
 #: The core the study and the physics-only runs share (the last one: the first takes most interrupts).
 CORE = max(os.sched_getaffinity(0))
 
@@ -66,7 +67,6 @@ CORE = max(os.sched_getaffinity(0))
 def _on_core() -> None:
     """In a child about to exec: run on `CORE` only (the children it starts inherit it)."""
     os.sched_setaffinity(0, {CORE})
-ENV = installed_env()
 
 
 #: The tools that act in the world or look at it: an attempt's physics, replayed by the physics-only runs.
