@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from robocog.server.cli_options import build_parser
-from robocog.server.config import DEFAULT_MAX_SESSIONS
+from robocog.server.config import DEFAULT_MAX_SESSIONS, event_loop_options
 
 if TYPE_CHECKING:
     from robocog.server.http import HttpOptions
@@ -166,7 +166,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
             from robocog.server.stdio import serve_stdio
 
-            anyio.run(serve_stdio, server)
+            anyio.run(serve_stdio, server, backend_options=event_loop_options())
         else:
             routed = os.environ.get("ROBOCOG_FLEET_PROCESS")  # a process of a fleet behind a router
             where = f"fleet process {routed} ready" if routed else f"MCP over streamable HTTP at {http.url}"

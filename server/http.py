@@ -26,7 +26,7 @@ import socket
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from robocog.server.config import DEFAULT_MAX_SESSIONS, DEFAULT_SESSION_IDLE_S
+from robocog.server.config import DEFAULT_MAX_SESSIONS, DEFAULT_SESSION_IDLE_S, event_loop_options
 from robocog.shared.errors import ConfigError
 from robocog.shared.web import LOOPBACK_NAMES, SERVER_KEEP_ALIVE_S
 
@@ -367,4 +367,4 @@ def serve(mcp: MCPServer[Any], options: HttpOptions, *, log_level: str = "warnin
         lifespan="on",
         timeout_keep_alive=SERVER_KEEP_ALIVE_S,  # one connection for a whole attempt, think time included
     )
-    anyio.run(uvicorn.Server(config).serve)
+    anyio.run(uvicorn.Server(config).serve, backend_options=event_loop_options())

@@ -13,7 +13,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from robocog.server.config import DRIVER_SECRET_ENV
+from robocog.server.config import DRIVER_SECRET_ENV, event_loop_options
 from robocog.server.router import Router, Upstream
 from robocog.shared.errors import ConfigError
 from robocog.shared.process import PARENT_ENV, die_with_parent, free_port, wait_listening
@@ -200,4 +200,4 @@ def serve(router: Router, host: str, port: int, log_level: str) -> None:
         lifespan="on",
         timeout_keep_alive=SERVER_KEEP_ALIVE_S,
     )
-    anyio.run(uvicorn.Server(config).serve)
+    anyio.run(uvicorn.Server(config).serve, backend_options=event_loop_options())
