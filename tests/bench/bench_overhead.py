@@ -20,8 +20,8 @@ speed drifts by a third within minutes and switches between two speeds for secon
 physics figure measured before or after a study can be a third off the study's own. The study (with
 every process it starts) and the physics-only process are pinned to one and the same core (`CORE`):
 each of this machine's two cores switches speed on its own, and a study on one core measured against
-physics on the other read ratios a sixth apart from one round to the next (4 rounds: standard
-deviation 0.12 on a fleet, 0.06 over stdio; pinned to one core, 0.02 and 0.01).
+physics on the other read rounds from 1.51 to 1.84 over stdio, 1.69 to 2.19 on a fleet; on one core,
+1.49 to 1.65 and 1.40 to 1.82 (docs/figures.md).
 
 `ROBOCOG_BENCH_AGAINST=/path/to/other/.venv/bin` measures another install's studies too (the previous
 release, say), alternating with this one's, against the same physics-only figure.
