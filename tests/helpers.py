@@ -25,13 +25,13 @@ from contextlib import asynccontextmanager, contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO, cast
 
-from robocog.agent.client.lean import McpClient
 from robocog.shared.paper import T1_SEQUENCE, T2_SEQUENCE, Action, action_args
 
-if TYPE_CHECKING:
+if TYPE_CHECKING:  # the benches run this file with a previous release's install too
     from mcp import Client
 
     from robocog.agent.client.connection import Robot
+    from robocog.agent.client.lean import McpClient
 
 __all__ = ["T1_SEQUENCE", "T2_SEQUENCE", "Action", "action_args"]
 

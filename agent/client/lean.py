@@ -5,8 +5,9 @@ rounds, response caching, progress, sampling and elicitation callbacks, resumabl
 request it stamps and dumps a model, opens an OpenTelemetry span, a request clock and a memory
 stream for the answer, passes the message through a transport task, parses the answer into a
 message model and validates its result twice. Against the server a study spawns for each worker
-(`robocog-server` over stdio), a no-op call cost the harness 0.42 ms of CPU that way, where the
-JSON-RPC round trip itself costs 0.12 ms (`make bench --only client`).
+(`robocog-server` over stdio), a no-op call cost the harness about 0.4 ms of CPU that way, and about
+0.2 ms through this client, of which the JSON-RPC round trip itself is about 0.12 (the
+`client.stdio.*` figures of `make bench --only client`).
 
 `LeanClient` speaks only to those servers (and to the fleets a study starts, over HTTP with JSON
 answers: `json_http`), and only what the harness asks of them: the handshake, `tools/list`,
@@ -181,10 +182,10 @@ class LeanClient:
                 with anyio.fail_after(timeout):
                     answer = await self._channel.request(message)
         except TimeoutError:
-            await self._cancel(request_id, f"timed out after {timeout}s")
+            await self._cancel(method, request_id, f"timed out after {timeout}s")
             raise MCPError(REQUEST_TIMEOUT, f"Request {method!r} timed out") from None
         except anyio.get_cancelled_exc_class():
-            await self._cancel(request_id, "caller cancelled")
+            await self._cancel(method, request_id, "caller cancelled")
             raise
         error = answer.get("error")
         if error is not None:
@@ -200,8 +201,11 @@ class LeanClient:
             )
         return result
 
-    async def _cancel(self, request_id: int, reason: str) -> None:
-        """Tell the server a request is abandoned (best effort, bounded; the initialize is never cancelled)."""
+    async def _cancel(self, method: str, request_id: int, reason: str) -> None:
+        """Tell the server a request is abandoned (best effort, bounded); the handshake is never
+        cancelled (the protocol forbids it)."""
+        if method in ("initialize", "server/discover"):
+            return
         params: dict[str, Any] = {"requestId": request_id, "reason": reason}
         if self._stamp:
             params["_meta"] = dict(self._stamp)

@@ -45,6 +45,8 @@ for line in sys.stdin:
     method, request_id = message.get("method"), message.get("id")
     if request_id is None or method is None:
         continue  # a notification, or an answer to what we asked
+    if method == "server/discover" and "--mute" in sys.argv:
+        continue  # never answers the handshake
     if method == "server/discover":
         answer(request_id, {"supportedVersions": ["2026-07-28"], "capabilities": {"tools": {}},
                             "instructions": "scripted: MCP contract 9.9"})
@@ -151,6 +153,23 @@ async def test_a_call_given_up_is_told_to_the_server_and_the_session_goes_on(tmp
     cancelled = next(m for m in read(log) if m.get("method") == "notifications/cancelled")
     assert cancelled["params"]["requestId"] == slow["id"]
     assert cancelled["params"]["reason"] == "timed out after 0.2s"
+
+
+async def test_a_handshake_given_up_is_not_cancelled(tmp_path: Path) -> None:
+    """The protocol forbids cancelling the handshake: a client that gives up on it says nothing."""
+    import anyio
+
+    script, log = tmp_path / "server.py", tmp_path / "read.jsonl"
+    script.write_text(SCRIPTED, encoding="utf-8")
+    info = Implementation(name="robocog", version="test")
+    with (tmp_path / "stderr.log").open("w") as errlog, anyio.move_on_after(0.5) as gave_up:
+        async with (
+            stdio_channel([sys.executable, str(script), str(log), "--mute"], {}, errlog, "mute") as channel,
+            LeanClient(channel, era="modern", client_info=info, name="mute"),
+        ):
+            pytest.fail("the handshake was never answered")
+    assert gave_up.cancelled_caught
+    assert [m["method"] for m in read(log)] == ["server/discover"]
 
 
 async def test_a_server_that_dies_fails_its_calls_as_a_closed_connection(tmp_path: Path) -> None:
