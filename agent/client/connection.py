@@ -15,7 +15,7 @@ from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import IO, Any, Literal, TextIO, cast
+from typing import IO, Any, TextIO, cast
 
 from mcp import Client
 from mcp.client.stdio import StdioServerParameters
@@ -247,15 +247,14 @@ async def _session(target: Any, spec: ServerSpec) -> AsyncIterator[Robot]:
 
 @asynccontextmanager
 async def _lean_session(channel: Any, spec: ServerSpec) -> AsyncIterator[Robot]:
-    """The robot over robocog's lean client on `channel` (an async context manager that opens it): the
-    same handshake as the SDK's, 2025-11-25 over HTTP, 2026-07-28 over stdio (see `_session`)."""
+    """The robot over robocog's lean client on `channel` (an async context manager that opens it),
+    with the initialize handshake (protocol 2025-11-25: see `lean`)."""
     from mcp_types import Implementation
 
     from robocog.agent.client.lean import LeanClient
 
     info = Implementation(name="robocog", version=__version__)
-    era: Literal["modern", "legacy"] = "legacy" if spec.url else "modern"
-    async with channel as opened, LeanClient(opened, era=era, client_info=info, name=spec.label) as client:
+    async with channel as opened, LeanClient(opened, client_info=info, name=spec.label) as client:
         tools = (await client.list_tools()).tools
         yield await _robot(client, tools, spec)
 

@@ -186,7 +186,7 @@ async def _json_calls(url: str, pid: int) -> dict[str, object]:
     async with (
         Client(_http_transport(url, None), mode="legacy") as ours,
         json_http_channel(url) as channel,
-        LeanClient(channel, era="legacy", client_info=info, name=url) as lean,
+        LeanClient(channel, client_info=info, name=url) as lean,
     ):
         # as `connect` does: the tools listed, their validators shared
         share_validators(ours.session, (await ours.list_tools()).tools)

@@ -122,7 +122,7 @@ async def session(url: str, link: JsonHttpLink | None = None) -> AsyncIterator[L
     link = link or JsonHttpLink(url, "tok", keepalive_s=15)
     info = Implementation(name="robocog", version="test")
     try:
-        async with LeanClient(link, era="legacy", client_info=info, name=url) as client:
+        async with LeanClient(link, client_info=info, name=url) as client:
             yield client
     finally:
         await link.close(terminate=True)

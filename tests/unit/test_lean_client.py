@@ -45,10 +45,11 @@ for line in sys.stdin:
     method, request_id = message.get("method"), message.get("id")
     if request_id is None or method is None:
         continue  # a notification, or an answer to what we asked
-    if method == "server/discover" and "--mute" in sys.argv:
+    if method == "initialize" and "--mute" in sys.argv:
         continue  # never answers the handshake
-    if method == "server/discover":
-        answer(request_id, {"supportedVersions": ["2026-07-28"], "capabilities": {"tools": {}},
+    if method == "initialize":
+        answer(request_id, {"protocolVersion": message["params"]["protocolVersion"], "capabilities": {"tools": {}},
+                            "serverInfo": {"name": "scripted", "version": "1"},
                             "instructions": "scripted: MCP contract 9.9"})
     elif method == "tools/list":
         answer(request_id, {"tools": TOOLS})
@@ -85,7 +86,7 @@ async def scripted(tmp_path: Path, *extra: str) -> AsyncIterator[tuple[LeanClien
     with (tmp_path / "stderr.log").open("w") as errlog:
         async with (
             stdio_channel([sys.executable, str(script), str(log), *extra], {}, errlog, "scripted") as channel,
-            LeanClient(channel, era="modern", client_info=info, name="scripted") as client,
+            LeanClient(channel, client_info=info, name="scripted") as client,
         ):
             await client.list_tools()
             yield client, log
@@ -95,21 +96,22 @@ def read(log: Path) -> list[dict[str, Any]]:
     return [json.loads(line) for line in log.read_text(encoding="utf-8").splitlines()]
 
 
-async def test_every_request_is_stamped_with_the_era_and_the_client(tmp_path: Path) -> None:
+async def test_the_handshake_then_each_request_as_the_sdk_writes_it(tmp_path: Path) -> None:
     async with scripted(tmp_path) as (client, log):
         assert client.instructions == "scripted: MCP contract 9.9"
-        result = await client.call_tool("fine", {"n": 1}, meta=cast(RequestParamsMeta, {"robocog/model": "m"}))
+        meta = cast(RequestParamsMeta, {"robocog/model": "m"})
+        result = await client.call_tool("fine", {"n": 1}, meta=meta)
         assert not result.is_error and result.content[0].text == "done"  # type: ignore[union-attr]
-    discover, listed, call = read(log)
-    stamp = {
-        "io.modelcontextprotocol/protocolVersion": "2026-07-28",
-        "io.modelcontextprotocol/clientInfo": {"name": "robocog", "version": "test"},
-        "io.modelcontextprotocol/clientCapabilities": {},
+    initialize, initialized, listed, call = read(log)
+    assert initialize["method"] == "initialize" and initialize["params"] == {
+        "protocolVersion": "2025-11-25",
+        "capabilities": {},
+        "clientInfo": {"name": "robocog", "version": "test"},
     }
-    assert discover["method"] == "server/discover" and discover["params"] == {"_meta": stamp}
-    assert listed["method"] == "tools/list"
-    assert call["params"] == {"name": "fine", "arguments": {"n": 1}, "_meta": {"robocog/model": "m", **stamp}}
-    assert len({m["id"] for m in (discover, listed, call)}) == 3
+    assert initialized == {"jsonrpc": "2.0", "method": "notifications/initialized"}
+    assert listed["method"] == "tools/list" and "params" not in listed
+    assert call["params"] == {"name": "fine", "arguments": {"n": 1}, "_meta": {"robocog/model": "m"}}
+    assert len({m["id"] for m in (initialize, listed, call)}) == 3
 
 
 async def test_a_servers_error_is_the_requests_and_the_session_goes_on(tmp_path: Path) -> None:
@@ -165,11 +167,11 @@ async def test_a_handshake_given_up_is_not_cancelled(tmp_path: Path) -> None:
     with (tmp_path / "stderr.log").open("w") as errlog, anyio.move_on_after(0.5) as gave_up:
         async with (
             stdio_channel([sys.executable, str(script), str(log), "--mute"], {}, errlog, "mute") as channel,
-            LeanClient(channel, era="modern", client_info=info, name="mute"),
+            LeanClient(channel, client_info=info, name="mute"),
         ):
             pytest.fail("the handshake was never answered")
     assert gave_up.cancelled_caught
-    assert [m["method"] for m in read(log)] == ["server/discover"]
+    assert [m["method"] for m in read(log)] == ["initialize"]
 
 
 async def test_a_server_that_dies_fails_its_calls_as_a_closed_connection(tmp_path: Path) -> None:
@@ -228,7 +230,7 @@ async def test_robocogs_server_answers_the_lean_client_as_it_answers_the_sdks(tm
         command=command, args=[*args, "--profile", "eval", "--data-dir", str(tmp_path / "sdk")]
     )
     with (tmp_path / "sdk.log").open("w") as errlog:
-        async with Client(stdio_client(params, errlog=errlog)) as client:
+        async with Client(stdio_client(params, errlog=errlog), mode="legacy") as client:  # the same protocol
             sdk = [_comparable(await client.call_tool(name, args)) for name, args in CALLS]
             sdk_state = await client.read_resource("robocog://world/state")
     async with connect(ServerSpec(extra_args=["--profile", "eval", "--data-dir", str(tmp_path / "sdk2")])) as robot:
