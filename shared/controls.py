@@ -53,10 +53,12 @@ class EvalControls:
         suite: str | None = None,
         observe: Literal["location", "room", "house"] | None = None,
         perturbations: list[Perturbation] | None = None,
+        clear_memory: bool = False,
     ) -> dict[str, Any]:
         """The start state again (a new episode), or a suite instance's start; answers the world state.
         `observe`, when given, is what look_around reveals from now on (contract 3.1); `perturbations`,
-        what goes wrong in this episode (contract 3.2)."""
+        what goes wrong in this episode (contract 3.2); `clear_memory`, the namespace's records
+        forgotten first (contract 3.3: sent only when true)."""
         arguments: dict[str, Any] = {"seed": seed, "randomize": randomize}
         optional = {
             "memory_labels": memory_labels,
@@ -68,6 +70,7 @@ class EvalControls:
             "perturbations": None
             if perturbations is None
             else [p.model_dump(mode="json", exclude_defaults=True) | {"kind": p.kind} for p in perturbations],
+            "clear_memory": True if clear_memory else None,
         }
         arguments.update({k: v for k, v in optional.items() if v is not None})
         if instance is not None:  # an instance sets its own start: no seed or randomization of ours
@@ -84,9 +87,11 @@ class EvalControls:
             arguments["episode_id"] = episode_id
         return await self._call("begin_task", arguments)
 
-    async def check_task(self, task_id: str) -> TaskVerdict:
-        """The ground-truth verdict of `task_id` against the episode's start."""
-        return TaskVerdict.model_validate(await self._call("check_task", {"task_id": task_id}))
+    async def check_task(self, task_id: str, *, record: bool = True) -> TaskVerdict:
+        """The ground-truth verdict of `task_id` against the episode's start; with `record` false (contract
+        3.3: sent only then), not written into the episode's memory record."""
+        arguments: dict[str, Any] = {"task_id": task_id} if record else {"task_id": task_id, "record": False}
+        return TaskVerdict.model_validate(await self._call("check_task", arguments))
 
     async def clear_memory(self, *, drop: bool = False) -> int:
         """Forget every record of the memory namespace (with `drop`, delete the namespace and its files,

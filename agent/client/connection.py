@@ -105,6 +105,17 @@ class Robot:
             raise ServerConnectionError(f"the robot server at {self.label}: {reason}")
         # any other answer is the model's to meet on its first call, as before
 
+    def speaks(self, version: str) -> bool:
+        """Whether the server announces MCP contract `version` ("3.3") or a later one of its major."""
+        if self.contract is None:
+            return False
+        try:
+            announced = tuple(int(part) for part in self.contract.split("."))
+            wanted = tuple(int(part) for part in version.split("."))
+        except ValueError:
+            return False
+        return announced[0] == wanted[0] and announced >= wanted
+
     @property
     def can_check(self) -> bool:
         return any(t.name == "check_task" for t in self.tools)

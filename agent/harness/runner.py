@@ -130,11 +130,15 @@ class Runner:
         if cfg.perturbations:  # only when asked: a server before contract 3.2 does not know them
             reset["perturbations"] = cfg.perturbations
         controls = self.controls(robot)
+        # Contract 3.3: the namespace cleared by the first reset, and no verdict written into a record the
+        # unit drops right after its last check; a server before it gets the calls it knows.
+        at_once = robot.speaks("3.3")
         for iteration in range(start_iteration, cfg.memory_iterations):
             written = False  # nothing of this iteration written or counted yet: a server lost now costs it nothing
             try:
-                await controls.reset_world(seed=seed, randomize=cfg.randomize, **reset)
-                if iteration == 0:
+                fresh = iteration == 0  # iteration 0 starts with an empty memory
+                await controls.reset_world(seed=seed, randomize=cfg.randomize, clear_memory=fresh and at_once, **reset)
+                if fresh and not at_once:
                     await controls.clear_memory()
             except Exception as exc:
                 if unreachable(exc):  # the server died between attempts: the iteration runs on a new one
@@ -156,15 +160,21 @@ class Runner:
                         episode_id=episode_id(cfg.name, spec.name, seed, trial, iteration, task),
                     )
 
-                async def attempt(task: str, iteration: int = iteration, messages: list[Any] = messages) -> AttemptRow:
-                    return await self.attempt(robot, spec, trial, iteration, task, messages)
+                async def attempt(
+                    task: str, iteration: int = iteration, messages: list[Any] = messages, record: bool = True
+                ) -> AttemptRow:
+                    return await self.attempt(robot, spec, trial, iteration, task, messages, record=record)
+
+                # the unit's last check: its namespace is dropped next, unless kept
+                last = iteration == cfg.memory_iterations - 1 and index == len(cfg.tasks) - 1
+                record = not (last and at_once and not cfg.keep_memory)
 
                 try:
                     # a suite's instance: its world set up, its earlier tasks run (an errored one is its row)
                     early = await self.suite.set_up(controls, task_id, messages, reset, begin=begin, attempt=attempt)
                     if early is None:
                         await begin(task_id)
-                    row = early or await attempt(task_id)
+                    row = early or await attempt(task_id, record=record)
                 except ServerBroke as broke:
                     await self.write(broke.row)
                     self.progress.advance(len(cfg.tasks) - index - 1)
@@ -227,8 +237,11 @@ class Runner:
         iteration: int,
         task_id: str,
         conversation: list[dict[str, Any]],
+        *,
+        record: bool = True,
     ) -> AttemptRow:
-        """One task attempt, continuing `conversation` (empty: a new one)."""
+        """One task attempt, continuing `conversation` (empty: a new one); `record` false: its verdict is
+        not written into the episode's memory record (the unit drops the namespace next)."""
         cfg = self.config
         prompt = robot.tasks.get(task_id) or self.suite.prompt(task_id)
         if prompt is None:
@@ -279,7 +292,7 @@ class Runner:
                 conversation=conversation,
                 furniture=furniture,  # asked once, for the provenance and the episode alike
             )
-            checked = await self.controls(robot).check_task(task_id)
+            checked = await self.controls(robot).check_task(task_id, record=record)
         except Exception as exc:  # the server or the transport died: this attempt fails, not the study
             trace.close()
             raise ServerBroke(

@@ -119,16 +119,25 @@ def reset_world(
             max_length=MAX_PERTURBATIONS,
         ),
     ] = None,
+    clear_memory: Annotated[
+        bool,
+        Field(
+            description="Forget every record of the memory namespace first (memory_namespace's, when given), "
+            "as clear_memory does: a harness's unit begins so, in one call"
+        ),
+    ] = False,
 ) -> WorldState:
-    """Put the world back to its start state and begin a new episode. Episodic memory is kept.
-    memory_labels, search_k, memory_namespace and observe, when given, hold from now on (until set again).
-    With an instance of a suite: the world of the instance's scene, set to the instance's start
-    (seed and randomize do not apply), and the instance's task (and its earlier tasks, ID-pre1, ...)
-    can be begun and checked by id. perturbations hold for this episode only."""
+    """Put the world back to its start state and begin a new episode. Episodic memory is kept, unless
+    clear_memory. memory_labels, search_k, memory_namespace and observe, when given, hold from now on
+    (until set again). With an instance of a suite: the world of the instance's scene, set to the
+    instance's start (seed and randomize do not apply), and the instance's task (and its earlier
+    tasks, ID-pre1, ...) can be begun and checked by id. perturbations hold for this episode only."""
     if instance is not None and (seed is not None or randomize):
         raise ValueError("give an instance, or a seed and randomize: an instance has its own seed and start")
     if memory_namespace is not None:
         robot.use_namespace(memory_namespace)
+    if clear_memory:
+        _forget(robot)
     if instance is not None:
         state = robot.begin_instance(suite, instance, perturbations)
     else:
@@ -165,17 +174,27 @@ def begin_task(
     )
 
 
-def check_task(robot: RobotSession, task_id: TaskIdArg) -> TaskVerdict:
+def check_task(
+    robot: RobotSession,
+    task_id: TaskIdArg,
+    record: Annotated[
+        bool,
+        Field(
+            description="Write the verdict into the episode's memory record (false: judge only; a harness about "
+            "to drop the memory namespace has no use for it there)"
+        ),
+    ] = True,
+) -> TaskVerdict:
     """The ground-truth verdict of a task for the world as it is now, against the current
     episode's start, with a reason per object. If the current episode ended with a report (and
     was not begun for another task), the verdict is written into that episode's memory record,
-    and into no other."""
+    and into no other (unless record is false)."""
     episode = robot.episode
     world = robot.world
     closed = {name: world.furniture(name).state == "closed" for name in world.container_names}
     verdict = evaluate(robot.task(task_id), world.placements(), episode.baseline, episode.report, closed)
     same_task = episode.task_id is None or episode.task_id == task_id
-    if episode.ended and episode.record_id is not None and same_task:
+    if record and episode.ended and episode.record_id is not None and same_task:
         try:
             robot.memory.set_verified(episode.record_id, "success" if verdict.success else "failure")
         except KeyError:  # the record was deleted since (clear_memory, here or by a robot sharing the memory)
@@ -195,12 +214,18 @@ def clear_memory(
     ] = False,
 ) -> ClearMemoryResult:
     """Forget every stored episode in this robot's memory namespace; with drop, delete the namespace."""
-    removed = robot.memory.count()
     if drop:
+        removed = robot.memory.count()
         return ClearMemoryResult(removed=removed, freed_bytes=robot.drop_namespace())
+    return ClearMemoryResult(removed=_forget(robot))
+
+
+def _forget(robot: RobotSession) -> int:
+    """Delete every record of the robot's memory namespace; how many there were."""
+    removed = robot.memory.count()
     if removed:  # a unit's new namespace is empty: no need to list its records (Chroma holds the GIL)
         robot.memory.clear()
-    return ClearMemoryResult(removed=removed)
+    return removed
 
 
 RESET_WORLD = Tool("reset_world", "Reset the world", DESTRUCTIVE, reset_world, kind="control", changes_world=True)

@@ -271,6 +271,38 @@ async def test_reset_world_and_clear_memory(robot: Client) -> None:
     assert data["removed"] == 1
 
 
+async def test_reset_world_clears_the_namespace_it_switches_to_when_asked(robot: Client) -> None:
+    """Contract 3.3: `reset_world(clear_memory=true)` forgets the records of the namespace it is given
+    (and no other), as a unit's start did with a reset and a `clear_memory`."""
+    for namespace in ("unit-a", "unit-b"):
+        await call(robot, "reset_world", memory_namespace=namespace)
+        await call(robot, "end_task", status="success", description=f"Task of {namespace}.", summary="x")
+    await call(robot, "reset_world", memory_namespace="unit-a")  # kept, without clear_memory
+    assert len((await call(robot, "search_memory", query="Task"))[1]["results"]) == 1
+    _, state = await call(robot, "reset_world", memory_namespace="unit-a", clear_memory=True)
+    assert state["robot"]["location"] == "Front Door"
+    assert (await call(robot, "search_memory", query="Task"))[1]["results"] == []
+    await call(robot, "reset_world", memory_namespace="unit-b")
+    assert [r["task_description"] for r in (await call(robot, "search_memory", query="Task"))[1]["results"]] == [
+        "Task of unit-b."
+    ]
+
+
+async def test_check_task_judges_without_writing_the_verdict_when_told(robot: Client) -> None:
+    """Contract 3.3: `check_task(record=false)` gives the same verdict and leaves the record as the
+    model's end_task wrote it (a harness about to drop the namespace has no use for the verdict)."""
+    await call(robot, "reset_world", memory_labels="verified")
+    for record in (False, True):
+        await call(robot, "reset_world", memory_namespace=f"record-{record}")
+        await call(robot, "begin_task", task_id="T1")
+        await call(robot, "end_task", status="success", description=T1, summary="Claimed, not done.")
+        _, verdict = await call(robot, "check_task", task_id="T1", record=record)
+        assert verdict["success"] is False
+        _, found = await call(robot, "search_memory", query=T1)
+        (hit,) = found["results"]
+        assert (hit["status"], hit["status_source"]) == (("failure", "verified") if record else ("success", "believed"))
+
+
 async def test_t1_then_t2_through_tool_calls(robot: Client) -> None:
     for action in T1_SEQUENCE:
         is_error, data = await call(robot, action[0], **action_args(action))
