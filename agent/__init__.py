@@ -22,11 +22,12 @@ seconds to import)::
 
 The packages, one job each (their layers are checked by import-linter, see pyproject.toml):
 `cli` (a module per command), `harness` (studies: units, the runner, fleets, Ray), `view` (the results
-viewer), `contract` (the published MCP contract), `client` (connection, loop, model service, trace
-sinks), `suitegen` (the suite's generator), `analysis` (results file, statistics, scores, taxonomy,
-figures, report), `policies` (the scripted models and the planner), `families` (a suite family's draw
-and how the planner reads its prompts), `symbolic` (the names-only world and the one optimal search),
-`study_protocols` (the `paper` and `robocog` protocols as data).
+viewer), `contract` (the published MCP contract), `client` (connection, the lean MCP client for a
+study's own servers, loop, model service, trace sinks), `suitegen` (the suite's generator), `analysis`
+(results file, statistics, scores, taxonomy, figures, report), `policies` (the scripted models and the
+planner), `families` (a suite family's draw and how the planner reads its prompts), `symbolic` (the
+names-only world and the one optimal search), `study_protocols` (the `paper` and `robocog` protocols
+as data).
 """
 
 from __future__ import annotations
