@@ -57,7 +57,8 @@ def default_processes(workers: int) -> int:
 
 class Fleets:
     """`processes` fleet servers for `workers` workers, on loopback, each with its own data directory
-    under `work_dir`; used as an async context manager (started on entry, stopped on exit)."""
+    under `memory_dir` (default `work_dir`, which holds their logs); used as an async context manager
+    (started on entry, stopped on exit)."""
 
     def __init__(
         self,
@@ -67,11 +68,13 @@ class Fleets:
         processes: int | None = None,
         server_command: list[str] | None = None,
         server_args: list[str] | None = None,
+        memory_dir: Path | None = None,
     ) -> None:
         self.processes = max(1, min(processes or default_processes(workers), workers))
         #: Robots per fleet: its share of the workers, and one to spare for a session that is closing.
         self.robots = math.ceil(workers / self.processes) + 1
         self.work_dir = work_dir
+        self.memory_dir = memory_dir if memory_dir is not None else work_dir
         self.command = list(server_command or default_server_command())
         #: robocog's own server answers each call with one JSON body: no worker asks for progress or logs,
         #: and an event stream per call cost both sides about 1.7 ms of CPU (a server given by its command
@@ -92,7 +95,7 @@ class Fleets:
         return [
             *("--transport", "http", "--host", "127.0.0.1", "--port", str(self.ports[index])),
             *("--profile", "eval", "--robots", str(self.robots), "--max-sessions", str(self.robots + 4)),
-            *memory_args(self.server_args, self.work_dir / f"fleet-{index}"),
+            *memory_args(self.server_args, self.memory_dir / f"fleet-{index}"),
             *(["--json-response"] if self.json_response else []),
         ]
 

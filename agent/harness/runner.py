@@ -85,6 +85,8 @@ class Runner:
     urls: list[str] = field(default_factory=list)
     #: The fleet servers this study spawned (None: a running one at `urls`, or a process per worker).
     fleets: Fleets | None = None
+    #: Where the servers it spawns keep their memory (`scratch.memory_dir`; None: its work directory).
+    memory_dir: Path | None = None
     _lock: asyncio.Lock = field(default_factory=asyncio.Lock)
 
     @property
@@ -94,6 +96,11 @@ class Runner:
     @property
     def work_dir(self) -> Path:
         return self.out.with_name(self.out.stem + ".work")
+
+    @property
+    def servers_memory(self) -> Path:
+        """The directory under which each server this study spawns keeps its memory (a folder each)."""
+        return self.memory_dir if self.memory_dir is not None else self.work_dir
 
     async def write(self, row: AttemptRow) -> None:
         async with self._lock:
@@ -108,7 +115,7 @@ class Runner:
         if self.urls:
             lean = self.fleets is not None and self.fleets.json_response
             return ServerSpec(url=self.urls[worker % len(self.urls)], lean=lean)
-        args = ["--profile", "eval", *memory_args(self.config.server_args, self.work_dir / f"worker-{worker}")]
+        args = ["--profile", "eval", *memory_args(self.config.server_args, self.servers_memory / f"worker-{worker}")]
         if self.server_command:
             return ServerSpec(command=list(self.server_command), extra_args=args)
         return ServerSpec(extra_args=args, lean=True)

@@ -14,6 +14,7 @@ from robocog.agent.analysis.results_file import mend_torn_tail, read_rows
 from robocog.agent.client.model import check_credentials, resolve_api_key, warm_up_litellm
 from robocog.agent.harness.fleets import Fleets
 from robocog.agent.harness.runner import Progress, Runner
+from robocog.agent.harness.scratch import memory_dir
 from robocog.agent.harness.units import plan_units
 from robocog.shared.errors import ConfigError
 from robocog.shared.evaluation import AttemptRow, EvalConfig, ModelSpec, success
@@ -44,16 +45,20 @@ async def run_eval(
         check_credentials(spec.model, spec.api_base, resolve_api_key(spec))
     runner = Runner(config, out, server_command, urls=list(urls))
     requested = workers or config.workers
-    fleets = None
-    if not urls and ray_address is None and config.isolation == "fleet":
-        fleets = Fleets(
-            requested,
-            runner.work_dir,
-            processes=config.fleet_processes,
-            server_command=server_command,
-            server_args=config.server_args,
-        )
+    spawned = not urls and ray_address is None  # the servers are started here (not a running fleet's, not Ray's)
     async with contextlib.AsyncExitStack() as stack:
+        if spawned:  # their memory, in RAM where there is room (`scratch`); it goes last, once they have stopped
+            runner.memory_dir = stack.enter_context(memory_dir(runner.work_dir, keep_memory=config.keep_memory))
+        fleets = None
+        if spawned and config.isolation == "fleet":
+            fleets = Fleets(
+                requested,
+                runner.work_dir,
+                processes=config.fleet_processes,
+                server_command=server_command,
+                server_args=config.server_args,
+                memory_dir=runner.memory_dir,
+            )
         if fleets is not None:
             # LiteLLM's import and first call (seconds) happen while the fleets start.
             warming = asyncio.create_task(asyncio.to_thread(warm_up_litellm, [m.model for m in config.models]))

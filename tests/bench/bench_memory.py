@@ -4,7 +4,8 @@ Run: ``.venv/bin/python tests/bench/bench_memory.py``. Targets: search p50 <= 10
 add p50 <= 20 ms with 10,000 records. And a study unit's memory work (its namespace opened, searched,
 written, given its verdict, counted and dropped) with the data directory's Chroma client kept running
 between namespaces (`chroma.EMBEDDED`) against a client started and stopped for each namespace (as
-before), in alternating rounds, in a process of its own (`--units`).
+before), and kept with the data directory on the RAM file system a study keeps its servers' memory in
+(`robocog.agent.harness.scratch`), in alternating rounds, in a process of its own (`--units`).
 """
 
 from __future__ import annotations
@@ -133,18 +134,28 @@ UNITS, UNIT_ROUNDS = 24, 5
 
 def units() -> dict[str, float]:
     """A unit's memory work, CPU per unit (every thread of the process: Chroma's own included), with
-    the client kept (`keep` of 8) and with one per namespace (`keep` of 1: stopped as each closes)."""
+    the client kept (`keep` of 8) and with one per namespace (`keep` of 1: stopped as each closes), on
+    disk (this machine's temporary directory); and kept, on the RAM file system a study's servers keep
+    their memory in (`scratch`; where the machine has one with room)."""
+    from robocog.agent.harness.scratch import scratch_root
     from robocog.server.memory import chroma
 
-    spent = {"kept": 0.0, "client_per_namespace": 0.0}
-    with tempfile.TemporaryDirectory() as tmp:
+    ram = scratch_root()
+    ways: list[tuple[str, int, Path | None]] = [
+        ("kept", chroma.KEEP_NAMESPACES, None),
+        ("client_per_namespace", 1, None),
+    ]
+    ways += [("scratch", chroma.KEEP_NAMESPACES, ram)] if ram is not None else []
+    spent = dict.fromkeys((way for way, _, _ in ways), 0.0)
+    with tempfile.TemporaryDirectory() as tmp, tempfile.TemporaryDirectory(dir=ram) as in_ram:
         for i in range(UNIT_ROUNDS + 1):
-            for way, keep in (("kept", chroma.KEEP_NAMESPACES), ("client_per_namespace", 1)):
+            for way, keep, where in ways:
                 chroma.EMBEDDED.stop_idle()
                 chroma.EMBEDDED.keep = keep
                 start = time.process_time()
                 for unit in range(UNITS):
-                    with EpisodicMemory(Path(tmp) / way, namespace=f"unit-{i}-{unit}") as memory:
+                    data = Path(in_ram if where is not None else tmp) / way
+                    with EpisodicMemory(data, namespace=f"unit-{i}-{unit}") as memory:
                         memory.count()
                         memory.search("Put away all the items into the shelf.")
                         record = memory.add("Put away all the items.", "success", "Done.", episode=f"{i}-{unit}")

@@ -296,12 +296,14 @@ _UNIT: tuple[tuple[str, str, dict[str, Any]], ...] = (
 def unit_breakdown(actions: list[tuple[str, dict[str, Any]]], units: int = 8) -> dict[str, float]:
     """A unit's calls made in-process on a `RobotSession` (no MCP, no harness), with `actions` as its
     physics, CPU per part: what an attempt costs the server's tools themselves, and that over its
-    physics (the floor of the ratio with any transport). The mean over `units` after a first."""
+    physics (the floor of the ratio with any transport). The mean over `units` after a first. Its
+    memory is where a study's servers keep theirs (in RAM where the machine has room: `scratch`)."""
+    from robocog.agent.harness.scratch import scratch_root
     from robocog.server.tools import CONTROL_TOOLS
 
     tools = {t.name: t for t in (*ROBOT_TOOLS, *CONTROL_TOOLS)}
     parts: dict[str, float] = {}
-    with tempfile.TemporaryDirectory() as tmp:
+    with tempfile.TemporaryDirectory(dir=scratch_root()) as tmp:
         robot = RobotSession(SessionConfig(data_dir=Path(tmp)))
         try:
             for unit in range(units + 1):

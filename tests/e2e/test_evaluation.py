@@ -18,6 +18,7 @@ from robocog.agent.analysis.report import render
 from robocog.agent.analysis.results_file import read_rows
 from robocog.agent.analysis.stats import pass_hat_k, wilson
 from robocog.agent.harness.runner import Progress
+from robocog.agent.harness.scratch import PREFIX, SCRATCH_ENV
 from robocog.agent.harness.study import run_eval
 from robocog.agent.harness.units import unit_complete
 from robocog.shared.errors import ConfigError
@@ -124,7 +125,12 @@ def _stable(rows: list[AttemptRow]) -> list[tuple[object, ...]]:
     return sorted(tuple(v for k, v in r.model_dump().items() if k not in volatile) for r in rows)
 
 
-async def test_resume_after_a_kill_gives_exactly_the_rows_of_an_uninterrupted_run(tmp_path: Path) -> None:
+async def test_resume_after_a_kill_gives_exactly_the_rows_of_an_uninterrupted_run(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    ram = tmp_path / "ram"  # stands for /dev/shm: the killed study's memory is left there, the next sweeps it up
+    ram.mkdir()
+    monkeypatch.setenv(SCRATCH_ENV, str(ram))
     config = study(ModelSpec(model="scripted/planner"), trials=3, workers=1)
     config_file = tmp_path / "study.yaml"
     config_file.write_text(json.dumps(config.model_dump(mode="json")))  # JSON is YAML
@@ -145,10 +151,42 @@ async def test_resume_after_a_kill_gives_exactly_the_rows_of_an_uninterrupted_ru
     proc.wait()
     partial = read_rows(killed)
     assert 3 <= len(partial) < 12
+    assert [p.name for p in ram.iterdir()] == [p.name for p in ram.glob(f"{PREFIX}{proc.pid}-*")] != []
     resumed = await run_eval(config, killed, resume=True)
+    assert list(ram.iterdir()) == []
     uninterrupted = await run_eval(config, tmp_path / "whole.jsonl")
     assert len(resumed) == len(uninterrupted) == 12
     assert _stable(resumed) == _stable(uninterrupted)
+
+
+# --- where a study's servers keep their memory ---------------------------------------------------
+
+
+@pytest.mark.parametrize("isolation", ["process", "fleet"])
+async def test_a_studys_servers_keep_its_memory_in_ram_across_iterations_and_leave_nothing(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, isolation: str
+) -> None:
+    ram = tmp_path / "ram"  # stands for /dev/shm (robocog.agent.harness.scratch)
+    ram.mkdir()
+    monkeypatch.setenv(SCRATCH_ENV, str(ram))
+    seen: list[list[Path]] = []
+    out = tmp_path / "r.jsonl"
+    config = study(ModelSpec(model="scripted/planner"), trials=1, workers=1, tasks=["T1"], isolation=isolation)
+    rows = await run_eval(config, out, on_progress=lambda _: seen.append(sorted(ram.glob("*/*/chroma.sqlite3"))))
+    assert [(r.memory_iteration, r.true_success) for r in rows] == [(0, True), (1, True)]
+    # While it ran, its server's (or fleet's) memory was in its own directory in RAM, none in its work directory.
+    server = "worker-0" if isolation == "process" else "fleet-0"
+    assert {tuple(p.relative_to(ram).parts[1:]) for files in seen for p in files} == {(server, "chroma.sqlite3")}
+    assert all(p.parts[-3].startswith(f"{PREFIX}{os.getpid()}-") for files in seen for p in files)
+    # Iteration 1 found what iteration 0 stored there.
+    second = next(r for r in rows if r.memory_iteration == 1)
+    search = next(
+        e for e in read_trace(tmp_path / str(second.trace)) if isinstance(e, ToolResult) and e.name == "search_memory"
+    )
+    assert search.structured is not None and len(search.structured["results"]) == 1
+    # Once it ended, nothing of it is left in RAM, nor its work directory.
+    assert list(ram.iterdir()) == []
+    assert not (tmp_path / "r.work").exists()
 
 
 # --- task requirements ---------------------------------------------------------------------------
