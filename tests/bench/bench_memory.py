@@ -133,10 +133,10 @@ UNITS, UNIT_ROUNDS = 24, 5
 
 
 def units() -> dict[str, float]:
-    """A unit's memory work, CPU per unit (every thread of the process: Chroma's own included), with
-    the client kept (`keep` of 8) and with one per namespace (`keep` of 1: stopped as each closes), on
-    disk (this machine's temporary directory); and kept, on the RAM file system a study's servers keep
-    their memory in (`scratch`; where the machine has one with room)."""
+    """A unit's memory work, CPU per unit (every thread of the process: Chroma's own included) and wall
+    time, with the client kept (`keep` of 8) and with one per namespace (`keep` of 1: stopped as each
+    closes), on disk (this machine's temporary directory); and kept, on the RAM file system a study's
+    servers keep their memory in (`scratch`; where the machine has one with room)."""
     from robocog.agent.harness.scratch import scratch_root
     from robocog.server.memory import chroma
 
@@ -147,12 +147,13 @@ def units() -> dict[str, float]:
     ]
     ways += [("scratch", chroma.KEEP_NAMESPACES, ram)] if ram is not None else []
     spent = dict.fromkeys((way for way, _, _ in ways), 0.0)
+    walls = dict.fromkeys(spent, 0.0)
     with tempfile.TemporaryDirectory() as tmp, tempfile.TemporaryDirectory(dir=ram) as in_ram:
         for i in range(UNIT_ROUNDS + 1):
             for way, keep, where in ways:
                 chroma.EMBEDDED.stop_idle()
                 chroma.EMBEDDED.keep = keep
-                start = time.process_time()
+                start, wall = time.process_time(), time.perf_counter()
                 for unit in range(UNITS):
                     data = Path(in_ram if where is not None else tmp) / way
                     with EpisodicMemory(data, namespace=f"unit-{i}-{unit}") as memory:
@@ -164,7 +165,11 @@ def units() -> dict[str, float]:
                         memory.drop()
                 if i > 0:  # the first round warms up (the embedding model, Chroma's first statements)
                     spent[way] += time.process_time() - start
-    return {f"memory.unit.{way}_cpu_ms": round(cpu / (UNITS * UNIT_ROUNDS) * 1000, 2) for way, cpu in spent.items()}
+                    walls[way] += time.perf_counter() - wall
+    per_unit = 1000 / (UNITS * UNIT_ROUNDS)
+    return {f"memory.unit.{way}_cpu_ms": round(cpu * per_unit, 2) for way, cpu in spent.items()} | {
+        f"memory.unit.{way}_wall_ms": round(wall * per_unit, 2) for way, wall in walls.items()
+    }
 
 
 def _units_in_child() -> dict[str, float]:
