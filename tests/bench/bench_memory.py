@@ -141,21 +141,19 @@ def units() -> dict[str, float]:
     from robocog.server.memory import chroma
 
     ram = scratch_root()
-    ways: list[tuple[str, int, Path | None]] = [
-        ("kept", chroma.KEEP_NAMESPACES, None),
-        ("client_per_namespace", 1, None),
-    ]
-    ways += [("scratch", chroma.KEEP_NAMESPACES, ram)] if ram is not None else []
+    # (name, Chroma clients kept, on the RAM file system)
+    ways = [("kept", chroma.KEEP_NAMESPACES, False), ("client_per_namespace", 1, False)]
+    ways += [("scratch", chroma.KEEP_NAMESPACES, True)] if ram is not None else []
     spent = dict.fromkeys((way for way, _, _ in ways), 0.0)
     walls = dict.fromkeys(spent, 0.0)
-    with tempfile.TemporaryDirectory() as tmp, tempfile.TemporaryDirectory(dir=ram) as in_ram:
+    with tempfile.TemporaryDirectory() as on_disk, tempfile.TemporaryDirectory(dir=ram or on_disk) as in_ram:
         for i in range(UNIT_ROUNDS + 1):
-            for way, keep, where in ways:
+            for way, keep, ram_backed in ways:
                 chroma.EMBEDDED.stop_idle()
                 chroma.EMBEDDED.keep = keep
                 start, wall = time.process_time(), time.perf_counter()
                 for unit in range(UNITS):
-                    data = Path(in_ram if where is not None else tmp) / way
+                    data = Path(in_ram if ram_backed else on_disk) / way
                     with EpisodicMemory(data, namespace=f"unit-{i}-{unit}") as memory:
                         memory.count()
                         memory.search("Put away all the items into the shelf.")
