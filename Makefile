@@ -8,7 +8,7 @@ export LITELLM_LOCAL_MODEL_COST_MAP := True
 export ANONYMIZED_TELEMETRY := False
 export PYTHONDONTWRITEBYTECODE := 1
 
-.PHONY: help demo world-demo test chromium bench soak fuzz lint format server inspector conformance docs bundle bundle-check clean
+.PHONY: help demo world-demo test chromium inspector-cli bench soak fuzz lint format server inspector conformance docs bundle bundle-check clean
 
 help: ## Show this help
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-12s %s\n", $$1, $$2}'
@@ -52,7 +52,7 @@ world-demo: $(CORE) ## T1 then T2 as fixed action sequences on the world itself 
 # The suite runs on TEST_WORKERS processes (pytest-xdist), each taking whole modules, so a module's
 # shared server or Ray cluster starts once; `make test TEST_WORKERS=0` runs it in one process.
 TEST_WORKERS ?= 2
-test: $(STAMP) $(TYPES) chromium ## Run the test suite (offline; no API key needed)
+test: $(STAMP) $(TYPES) chromium inspector-cli ## Run the test suite (offline; no API key needed)
 	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) --dist loadfile
 
 # The viewers' browser tests drive the system's Chromium (Playwright cannot download its own here):
@@ -63,6 +63,18 @@ chromium:
 		echo "installing Chromium for the browser tests"; \
 		apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null; \
 	else echo "Chromium is missing: the browser tests will skip (install it: sudo apt-get install chromium)"; fi
+
+# The MCP Inspector's CLI (pinned, from npm, into .cache/inspector): a test drives the HTTP server with it
+# as a person trying the server by hand would. Installed where Node.js is; elsewhere that test skips.
+INSPECTOR_VERSION := 1.0.3
+INSPECTOR_BIN := .cache/inspector/node_modules/.bin/mcp-inspector
+inspector-cli: ## Install the MCP Inspector's CLI for the tests (needs Node.js and npm)
+	@if [ -x $(INSPECTOR_BIN) ]; then :; \
+	elif command -v npm >/dev/null 2>&1; then \
+		echo "installing the MCP Inspector $(INSPECTOR_VERSION) for the tests"; mkdir -p .cache/inspector; \
+		npm install --silent --no-audit --no-fund --prefix .cache/inspector @modelcontextprotocol/inspector@$(INSPECTOR_VERSION) >/dev/null 2>&1 \
+		|| echo "the MCP Inspector could not be installed: its test will skip"; \
+	else echo "npm is missing: the MCP Inspector test will skip (install Node.js)"; fi
 
 BENCH_ONLY ?=
 bench: $(STAMP) chromium ## Print the performance figures as JSON and record them in docs/figures.json (BENCH_ONLY=startup,overhead picks some)

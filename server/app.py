@@ -43,6 +43,7 @@ from robocog.server.config import AccessConfig, SessionConfig
 from robocog.server.consent import ConsentGate
 from robocog.server.events import EventBus
 from robocog.server.fleet import DEFAULT_OPEN_NAMESPACES, Fleet
+from robocog.server.ownership import Presence
 from robocog.server.resources import Current, register_completions, register_prompts, register_resources
 from robocog.server.state import REQUEST, AppState
 from robocog.server.tool_wiring import Access, invalid_arguments, register_tool
@@ -69,7 +70,10 @@ INSTRUCTIONS = (
 class RobocogServer(MCPServer[AppState]):
     """MCPServer, with argument errors a model can read: "Invalid arguments for move_to: location:
     Input should be a valid string (got 5)." instead of pydantic's report (its model name, its
-    documentation URL, and up to 200 characters of what was sent back again)."""
+    documentation URL, and up to 200 characters of what was sent back again); and `presence`, what
+    its transport tells of its clients (`ownership.Presence`: the HTTP app attaches to it)."""
+
+    presence: Presence
 
     async def call_tool(
         self, name: str, arguments: dict[str, Any], context: Context[AppState, Any] | None = None
@@ -118,9 +122,10 @@ def register_logging_and_subscriptions(mcp: MCPServer[AppState]) -> None:
     lowlevel.add_request_handler("resources/unsubscribe", UnsubscribeRequestParams, unsubscribe)
 
 
-#: The identity rule, published as an experimental capability so that the contract (and `robocog
-#: contract check`) sees it: over HTTP without a session, a driver is the id the server issued.
-DRIVER_RULE = {"issued": True}
+#: The identity rules, published as an experimental capability so that the contract (and `robocog
+#: contract check`) sees them: over HTTP without a session, a driver is the handle the server minted
+#: (`issued`), passed as the tools' `robot_id` argument (`handle`; SEP-2567).
+DRIVER_RULE = {"issued": True, "handle": True}
 
 
 def publish_driver_rule(mcp: MCPServer[AppState]) -> None:
@@ -174,7 +179,9 @@ def build_server(
     sets the bearer token, the consent gate, the published tools and the lease; `view`, a port,
     serves the live viewer there (127.0.0.1; 0 picks a free port) from this process; `robots` > 1
     makes it a fleet: each driver (an HTTP session, a connection) gets a robot of its own (as with
-    `per_driver`, for one robot too: a fleet's process behind a router)."""
+    `per_driver`, for one robot too: a fleet's process behind a router). Every tool takes the optional
+    `robot_id` (a robot handle, for clients without a session: `ownership.py`), on every transport, so
+    that the contract is one; clients never offer it to a model (`shared.provenance.function_definition`)."""
     config = config or SessionConfig()
     access = access or AccessConfig()
     if robots < 1:
@@ -189,7 +196,7 @@ def build_server(
     current = Current()
 
     @asynccontextmanager
-    async def lifespan(_: MCPServer[AppState]) -> AsyncIterator[AppState]:
+    async def lifespan(server: MCPServer[AppState]) -> AsyncIterator[AppState]:
         fleet = Fleet(
             config,
             capacity=robots,
@@ -197,6 +204,8 @@ def build_server(
             idle_s=access.lease_idle_s,
             open_namespaces=open_namespaces,
         )
+        if isinstance(server, RobocogServer) and hasattr(server, "presence"):
+            fleet.presence = server.presence
         state = current.state = AppState(fleet)
 
         async def build() -> None:
@@ -243,7 +252,7 @@ def build_server(
                 current.state = None
                 await anyio.to_thread.run_sync(fleet.close)
 
-    mcp: MCPServer[AppState] = RobocogServer(
+    mcp = RobocogServer(
         "robocog",
         title="robocog household robot",
         instructions=INSTRUCTIONS,
@@ -252,6 +261,7 @@ def build_server(
         log_level=log_level,
         **_auth(access),
     )
+    mcp.presence = Presence()
     install_log_handlers(log_level)
     trace_only_when_traced(mcp)
     guard = Access(gate=ConsentGate() if access.confirm_actions else None)

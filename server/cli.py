@@ -83,14 +83,20 @@ def main(argv: Sequence[str] | None = None) -> int:
         except ConfigError as exc:
             print(f"robocog-server: {exc}", file=sys.stderr)
             return 2
-    for flag, host, port in (
-        ("--port", args.host, args.port if args.transport == "http" else 0),
-        ("--view", "127.0.0.1", args.view or 0),
-    ):
-        taken = _port_taken(host, port)
-        if taken:  # one line now, before any banner says where the server is
-            print(f"robocog-server: {flag} {port}: {taken}", file=sys.stderr)
-            return 2
+    taken = _port_taken(args.host, args.port if args.transport == "http" else 0)
+    if taken:  # one line now, before any banner says where the server is
+        print(f"robocog-server: --port {args.port}: {taken}", file=sys.stderr)
+        return 2
+    from robocog.shared.process import probe_bind
+
+    why = probe_bind("127.0.0.1", args.view)[1] if args.view else None
+    if why:  # the viewer is optional: it never takes the MCP server down
+        print(
+            f"robocog-server: the live viewer's port {args.view} is in use or cannot be listened on ({why}); the "
+            "viewer serves on a free port instead (its address follows), and the MCP server runs as asked",
+            file=sys.stderr,
+        )
+        args.view = 0
     from robocog.shared.errors import WorldError
     from robocog.shared.memory_names import collection_name, parse_chroma_url
     from robocog.shared.scene_files import load_scene, scene_path

@@ -19,6 +19,8 @@ logging.addLevelName(NOTICE, "NOTICE")
 #: HTTP limits by default (`robocog-server --max-sessions`, `--session-idle-s`).
 DEFAULT_MAX_SESSIONS = 64
 DEFAULT_SESSION_IDLE_S = 600.0
+#: How long a fleet keeps a robot bound to a handle that its client never presented (`ownership.py`).
+UNCONFIRMED_IDLE_S = 30.0
 #: The environment variable that gives a server its driver-id signing secret (`ownership.py`).
 DRIVER_SECRET_ENV = "ROBOCOG_DRIVER_SECRET"
 

@@ -57,9 +57,9 @@ class ConsentGate:
         """The keyword parameter a tool handler declares to receive the user's answer before it runs."""
         gate = self
 
-        async def ask(ctx: Context[Any], **arguments: Any) -> Elicit[Decision] | Decision:
-            driver = Driver.of(ctx.request_context, ctx.request_context.lifespan_context.ids, issue=False)
-            if driver is not None and driver.key in gate._allowed:
+        async def ask(ctx: Context[Any], robot_id: str | None = None, **arguments: Any) -> Elicit[Decision] | Decision:
+            driver = Driver.of(ctx.request_context, ctx.request_context.lifespan_context.ids, handle=robot_id)
+            if driver.key in gate._allowed:
                 return Decision(decision=ALLOW_SESSION)
             capabilities = ctx.client_capabilities
             if capabilities is None or capabilities.elicitation is None:
@@ -70,21 +70,28 @@ class ConsentGate:
         keyword = inspect.Parameter.KEYWORD_ONLY
         parameters = [p.replace(kind=keyword) for p in tool.parameters]
         context = inspect.Parameter("ctx", keyword, annotation=Context[Any])
+        handle = inspect.Parameter("robot_id", keyword, default=None, annotation=str | None)
         returns = Elicit[Decision] | Decision
-        ask.__signature__ = inspect.Signature([context, *parameters], return_annotation=returns)  # type: ignore[attr-defined]
-        ask.__annotations__ = {"ctx": Context[Any]} | {p.name: p.annotation for p in parameters} | {"return": returns}
+        ask.__signature__ = inspect.Signature([context, *parameters, handle], return_annotation=returns)  # type: ignore[attr-defined]
+        ask.__annotations__ = (
+            {"ctx": Context[Any]}
+            | {p.name: p.annotation for p in parameters}
+            | {"robot_id": str | None, "return": returns}
+        )
         ask.__name__ = ask.__qualname__ = f"confirm_{tool.name}"
         annotation = Annotated[ElicitationResult[Decision], Resolve(ask)]
         return inspect.Parameter("consent", keyword, annotation=annotation)
 
-    def check(self, ctx: Context[Any], tool: Tool[Any], answer: ElicitationResult[Decision]) -> None:
+    def check(
+        self, ctx: Context[Any], tool: Tool[Any], answer: ElicitationResult[Decision], handle: object = None
+    ) -> None:
         """Raise a tool error unless the user allowed the action; remember "for this session"."""
         if not isinstance(answer, AcceptedElicitation) or answer.data.decision == DENY:
             raise ToolError(f"The user did not allow {tool.name}: the robot did not move. Ask the user why.")
         if answer.data.decision == ALLOW_SESSION:
-            # a sessionless client is remembered by its driver id (one without an id yet cannot be)
-            driver = Driver.of(ctx.request_context, ctx.request_context.lifespan_context.ids, issue=False)
-            if driver is not None and driver.key not in self._allowed:
+            # a sessionless client is remembered by its handle (the anonymous driver cannot be: anyone is it)
+            driver = Driver.of(ctx.request_context, ctx.request_context.lifespan_context.ids, handle=handle)
+            if not driver.anonymous and driver.key not in self._allowed:
                 self._allowed.add(driver.key)
                 if driver.connection is not None:  # the session ends: ask again next time
                     driver.connection.exit_stack.callback(self._allowed.discard, driver.key)

@@ -20,6 +20,7 @@ it steps, so one process uses about one core: a machine's cores are used by a fe
 from __future__ import annotations
 
 import logging
+import os
 import threading
 import time
 from collections.abc import Callable, Hashable
@@ -30,8 +31,8 @@ import anyio
 import anyio.to_thread
 from mcp.server.mcpserver.exceptions import ToolError
 
-from robocog.server.config import DEFAULT_SESSION_IDLE_S, SessionConfig
-from robocog.server.ownership import UNCONFIRMED_IDLE_S, Driver, RobotLease
+from robocog.server.config import DEFAULT_SESSION_IDLE_S, UNCONFIRMED_IDLE_S, SessionConfig
+from robocog.server.ownership import Driver, Presence, RobotLease
 from robocog.shared.protocol import FLEET_FULL
 
 if TYPE_CHECKING:
@@ -45,6 +46,9 @@ logger = logging.getLogger("robocog.server.fleet")
 #: Memory namespaces a fleet process keeps open at once (`--memory-namespaces`): past it, the
 #: process closes them all between calls and opens again only those used next.
 DEFAULT_OPEN_NAMESPACES = 32
+#: How long a robot bound to a handle never presented is kept from a new driver when the fleet has no
+#: free robot (its client has had time to present it; a burst of new clients does not take each other's).
+RECLAIM_AFTER_S = 5.0
 #: Uses of the memory (a search, a write, a verdict) after which it is closed and opened again
 #: all the same: Chroma's client grows with every search after a write (about 200 KB each) and
 #: gives it back only when it stops.
@@ -193,6 +197,8 @@ class Fleet:
         self._free: list[Robot] = []
         self._bound: dict[Hashable, Robot] = {}
         self._assigning = anyio.Lock()
+        #: What the transport tells of its clients (a session whose client has gone gives up its robot).
+        self.presence = Presence()
         # Different robots' calls run side by side: a thread each (anyio's default is 40 in all).
         self.limiter = anyio.CapacityLimiter(max(4, capacity + 2))
 
@@ -240,11 +246,9 @@ class Fleet:
                 robot = await anyio.to_thread.run_sync(self.build, limiter=self.limiter)
                 self._free.remove(robot)
             else:
-                raise FleetFull(
-                    f"all {self.capacity} {FLEET_FULL} (--robots "
-                    f"{self.capacity}); close a session, wait for one to idle out, or start the server with "
-                    "more robots"
-                )
+                robot = await self._reclaim()
+                if robot is None:
+                    raise FleetFull(self.full_message())
             if robot.used:
                 try:
                     async with robot.lock:  # a call of its last driver may still be finishing
@@ -261,6 +265,46 @@ class Fleet:
                 driver.connection.exit_stack.callback(self.release, driver.key)
             logger.info("robot %d now driven by %s", robot.number, driver.label)
             return robot
+
+    async def _reclaim(self) -> Robot | None:
+        """A robot for a new driver when none is free: one bound to a handle its client never presented,
+        `RECLAIM_AFTER_S` after its last call, or to a session whose client has gone (`Presence`), the
+        longest quiet first; None if every robot is driven."""
+        now = self._clock()
+        spare = [
+            robot
+            for robot in self._bound.values()
+            if robot.driver is not None
+            and not robot.lock.locked()
+            and (
+                (robot.driver.connection is None and not robot.confirmed and now - robot.last_call > RECLAIM_AFTER_S)
+                or self.presence.absent(robot.driver)
+            )
+        ]
+        if not spare:
+            return None
+        robot = min(spare, key=lambda r: r.last_call)
+        gone = robot.driver
+        assert gone is not None
+        logger.info("robot %d taken back from %s for a new driver", robot.number, gone.label)
+        self.release(gone.key)
+        self._free.remove(robot)
+        await self.presence.let_go(gone)
+        return robot
+
+    def full_message(self) -> str:
+        """Why a new driver gets no robot, with the true counts (a router's process says whose)."""
+        advice = "close a session, wait for one to idle out, or start the server with more robots"
+        routed = os.environ.get("ROBOCOG_FLEET_PROCESS", "")
+        number, _, processes = routed.partition("/")
+        total = os.environ.get("ROBOCOG_FLEET_ROBOTS", "")
+        if processes.isdigit() and int(processes) > 1 and total.isdigit():
+            return (
+                f"fleet process {number} of {processes}: all {self.capacity} {FLEET_FULL}, and the router sends a new "
+                f"client to a process with a free robot first, so all {total} of the server's are driven (--robots "
+                f"{total}); " + advice
+            )
+        return f"all {self.capacity} {FLEET_FULL} (--robots {self.capacity}); " + advice
 
     async def call(self, robot: Robot, fn: Callable[[RobotSession], T]) -> T:
         """Run `fn` on `robot` (see `Robot.run`); afterwards, if the memories are due to be closed

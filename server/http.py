@@ -39,6 +39,8 @@ if TYPE_CHECKING:
     from mcp.server.transport_security import TransportSecuritySettings
     from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
+    from robocog.server.ownership import Presence
+
 #: The shortest token accepted: a guessable token is no protection.
 MIN_TOKEN_LENGTH = 16
 
@@ -226,7 +228,14 @@ class VanishedClients:
     went beyond `initialize` (and opened no stream) is closed after `INIT_ONLY_S`. Every other
     session idles out after `--session-idle-s`, as before."""
 
-    def __init__(self, app: ASGIApp, *, idle_s: float = DEFAULT_SESSION_IDLE_S, clock: Any = None) -> None:
+    def __init__(
+        self,
+        app: ASGIApp,
+        *,
+        idle_s: float = DEFAULT_SESSION_IDLE_S,
+        clock: Any = None,
+        presence: Presence | None = None,
+    ) -> None:
         import time
 
         self.app = app
@@ -234,6 +243,22 @@ class VanishedClients:
         self.clock = clock or time.monotonic
         self.sessions: dict[str, _Seen] = {}
         self.closed = 0
+        if presence is not None:  # the robots ask whether a session's client has gone, and close it
+            presence.attach(self.absent, self.close_gone)
+
+    def absent(self, sid: str) -> bool:
+        """Whether the client of session `sid` has gone as far as the transport shows: the event
+        stream it had open is closed and no request of it is in flight (within `GONE_GRACE_S` it could
+        still open the stream again; a client that wants the robot meanwhile does not wait for that)."""
+        seen = self.sessions.get(sid)
+        return seen is not None and seen.had_stream and not seen.streams and not seen.inflight
+
+    async def close_gone(self, sid: str) -> None:
+        seen = self.sessions.pop(sid, None)
+        if seen is not None:
+            await self._close(
+                sid, seen, "its client went away (its event stream closed), and another client asked for its robot"
+            )
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] == "lifespan":
@@ -351,7 +376,7 @@ def build_app(mcp: MCPServer[Any], options: HttpOptions) -> ASGIApp:
         json_response=options.json_response,
     )
     capped = SessionCapMessage(app, max_sessions=options.max_sessions, idle_s=options.session_idle_s)
-    return VanishedClients(capped, idle_s=options.session_idle_s)
+    return VanishedClients(capped, idle_s=options.session_idle_s, presence=getattr(mcp, "presence", None))
 
 
 def serve(mcp: MCPServer[Any], options: HttpOptions, *, log_level: str = "warning") -> None:

@@ -16,14 +16,25 @@ Who a client is depends on how it is connected, and is never what it says its na
   in-process client (`mcp.Client(server)`, tests in the same process) names itself with
   `_meta["robocog/driver"]`, or is known by its declared name and version;
 - a client without a session over HTTP (protocol 2026-07-28 and later sends every request on its
-  own, and the SDK's default `mcp.Client(url)` speaks it) is the *driver id the server issued it*:
-  the first call that needs a robot and carries no id gets a new one, in the result's
-  `_meta["robocog/driver"]`, and the client sends it back in `_meta["robocog/driver"]` on its later
-  calls. An id is signed by the server (HMAC with a secret of
-  the server, shared by a router's fleet processes), so a client cannot make one up or guess
-  another's, and messages never show a whole id. An id the server did not issue is refused with a
-  tool error. Such a lease ends `idle_s` after the driver's last call, or `UNCONFIRMED_IDLE_S` after
-  it when the client never sent its id back (a client that ignores the id cannot keep the robot).
+  own, and the SDK's default `mcp.Client(url)` speaks it) holds a *robot handle* if it wants one
+  (SEP-2567: state that spans calls is a handle the server mints and the client passes as an
+  ordinary tool argument). A handle, `robot_id`, is signed by the server (HMAC with a secret of the
+  server, shared by a router's fleet processes), so a client cannot make one up or guess another's,
+  and messages never show a whole one; one the server did not mint is refused with a tool error.
+  The rules (docs/security.md, "Who drives the robot"):
+  - one robot: a call with a valid `robot_id` drives as that handle; a call without one is the
+    *anonymous driver* (a desktop's one user), so a plain client needs no handle at all. The call
+    with which the anonymous driver takes the free robot, and `reset_world`, mint a handle and
+    return it (`robot_id` in the result); a handle holds the robot only from the first call that
+    presents it, and takes it over from the anonymous driver then. While a handle holds the robot,
+    calls without one may read but not act (refused in one line);
+  - a fleet: an id-less read-only robot call (`look_around`) or `reset_world` mints a handle and
+    binds a free robot to it; an id-less call that acts is refused in one line naming `robot_id`,
+    and takes no robot. A robot bound to a handle that was never presented goes back to the pool
+    after `UNCONFIRMED_IDLE_S`, or at once when the fleet has no other robot for a new driver;
+  - a handle's lease ends `idle_s` after its last call, the anonymous driver's `UNCONFIRMED_IDLE_S`
+    after it (anyone without a handle is that driver: it cannot keep the robot from others for long).
+  robocog's own client may pass the handle in `_meta["robocog/driver"]` instead (an alias).
 """
 
 from __future__ import annotations
@@ -33,8 +44,8 @@ import hmac
 import os
 import secrets
 import time
-from collections.abc import Callable, Hashable
-from dataclasses import dataclass
+from collections.abc import Awaitable, Callable, Hashable
+from dataclasses import dataclass, replace
 from typing import Any
 
 from mcp.server.connection import Connection
@@ -43,14 +54,12 @@ from mcp.server.mcpserver.exceptions import ToolError
 from mcp_types.version import MODERN_PROTOCOL_VERSIONS
 
 from robocog.server.clients import connection_of
-from robocog.server.config import DEFAULT_SESSION_IDLE_S, DRIVER_SECRET_ENV
+from robocog.server.config import DEFAULT_SESSION_IDLE_S, DRIVER_SECRET_ENV, UNCONFIRMED_IDLE_S
 from robocog.shared.protocol import DRIVER_META_KEY
 
 #: The environment variable that gives a server its id-signing secret (a router gives its fleet
 #: processes one, so an id issued by one is valid in all); without it, a random one per process.
 SECRET_ENV = DRIVER_SECRET_ENV
-#: How long a driver that never sent its issued id back keeps its robot after its last call.
-UNCONFIRMED_IDLE_S = 30.0
 
 
 class RobotBusy(Exception):
@@ -91,22 +100,45 @@ def fingerprint(driver_id: str) -> str:
     return hashlib.sha256(driver_id.encode()).hexdigest()[:8]
 
 
+#: What every message that asks for a handle says about how to get one.
+HOW_TO_GET_A_HANDLE = "call look_around (or reset_world) without robot_id: its result's robot_id is your robot's handle"
+
+
 @dataclass(frozen=True)
 class Driver:
     """A client that wants to act: its identity (`key`), a name for messages, its connection when
-    the lease can end with it, and (sessionless) the id the server issued it and whether it was
-    issued by this very call (the client has not sent it back yet)."""
+    the lease can end with it, and (sessionless) the handle it drives by (`driver_id`), whether
+    the server minted that handle on this very call (`issued_now`: the client has not presented it
+    yet), and `minted`, a handle this call returns to its caller (None: none)."""
 
     key: Hashable
     label: str
     connection: Connection | None
     driver_id: str | None = None
     issued_now: bool = False
+    #: A sessionless client that presented no handle (one robot: the anonymous driver).
+    anonymous: bool = False
+    minted: str | None = None
+
+    @property
+    def sessionless(self) -> bool:
+        """A client over HTTP without a session: known by its handle, or by none."""
+        return self.connection is None and (self.anonymous or self.driver_id is not None)
+
+    def with_new_handle(self, ids: DriverIds) -> Driver:
+        """This id-less caller as the holder of a handle minted for it now (a fleet binds a robot to it)."""
+        new = ids.issue()
+        return Driver(("driver", new), f"robot {fingerprint(new)}", None, new, issued_now=True, minted=new)
+
+    def minting(self, ids: DriverIds) -> Driver:
+        """This caller, with a new handle to return to it (it keeps driving as it is until it presents it)."""
+        return replace(self, minted=ids.issue())
 
     @classmethod
-    def of(cls, ctx: ServerRequestContext[Any, Any], ids: DriverIds, *, issue: bool = True) -> Driver | None:
-        """The driver making request `ctx`. A sessionless client without an id gets a new one when
-        `issue` (a call that needs a robot), else None; an id this server never issued is refused."""
+    def of(cls, ctx: ServerRequestContext[Any, Any], ids: DriverIds, *, handle: object = None) -> Driver:
+        """The driver making request `ctx`; `handle` is the call's `robot_id` argument, if any (else
+        the `_meta` alias counts). A sessionless client without a handle is the anonymous driver; a
+        handle this server never minted is refused."""
         connection = connection_of(ctx)
         params = connection.client_params
         client = f"{params.client_info.name} {params.client_info.version}" if params is not None else "a client"
@@ -116,23 +148,24 @@ class Driver:
             return cls(("connection", id(connection)), client, connection)
         if connection.has_standalone_channel:  # 2026-07-28 over one duplex stream (stdio)
             return cls(("stream", connection.outbound), client, None)
-        named = (ctx.meta or {}).get(DRIVER_META_KEY)
+        named = handle if handle is not None else (ctx.meta or {}).get(DRIVER_META_KEY)
         if _transport_kind(ctx) == "direct":  # the SDK's in-process client: same process, same trust
             if isinstance(named, str) and named:
                 return cls(("named", named[:200]), f"{client} (driver {named[:40]!r})", None)
             return cls(("client", client), client, None)
         if named is not None:
             if not isinstance(named, str) or not ids.valid(named):
+                where = "robot_id" if handle is not None else f'_meta["{DRIVER_META_KEY}"]'
                 raise UnknownDriver(
-                    f'_meta["{DRIVER_META_KEY}"] is not a driver id this server issued; leave it out of your '
-                    "first call that needs a robot, and send back the id that call returns in its result's "
-                    f'_meta["{DRIVER_META_KEY}"] on every later call'
+                    f"{where} is not a robot handle this server minted; {HOW_TO_GET_A_HANDLE}, and pass it as "
+                    "robot_id on every later call (or leave robot_id out)"
                 )
-            return cls(("driver", named), f"driver {fingerprint(named)}", None, named)
-        if not issue:
-            return None
-        new = ids.issue()
-        return cls(("driver", new), f"driver {fingerprint(new)}", None, new, issued_now=True)
+            return cls(("driver", named), f"robot {fingerprint(named)}", None, named)
+        return cls(ANONYMOUS, "a client without a robot_id", None, anonymous=True)
+
+
+#: The anonymous driver's key: every sessionless call without a handle on a one-robot server.
+ANONYMOUS = ("anonymous",)
 
 
 def _transport_kind(ctx: ServerRequestContext[Any, Any]) -> str | None:
@@ -150,7 +183,6 @@ class RobotLease:
         self.idle_s = idle_s
         self._clock = clock
         self._holder: Driver | None = None
-        self._confirmed = False
         self._last = 0.0
 
     @property
@@ -165,41 +197,79 @@ class RobotLease:
         holder = self.holder
         return holder is None or (driver is not None and holder.key == driver.key)
 
-    def claim(self, driver: Driver) -> None:
-        """Take the robot for `driver`, or raise `RobotBusy` if another holds it."""
+    def claim(self, driver: Driver) -> bool:
+        """Take the robot for `driver`, or raise `RobotBusy` if another holds it; whether `driver`
+        took it with this call (it was free, or held by the anonymous driver and `driver` presents
+        a handle)."""
         holder = self.holder
-        if holder is None:
+        took = holder is None or (holder.key != driver.key and holder.anonymous and driver.driver_id is not None)
+        if took:
             self._holder = driver
-            self._confirmed = not driver.issued_now
             if driver.connection is not None:
                 driver.connection.exit_stack.callback(self.release, driver.key)
-        elif holder.key != driver.key:
-            if holder.connection is None:
-                left = self._idle_limit() - (self._clock() - self._last)
-                wait = f"it lets go {self._idle_limit():g} s after its last call, in {left:.0f} s"
-            else:
-                wait = "it lets go when that client disconnects or its session idles out"
-            mine = (
-                f' If that is you, send the id your first call returned in its result\'s _meta["{DRIVER_META_KEY}"] '
-                "on every call."
-                if holder.driver_id is not None and driver.issued_now
-                else ""
-            )
-            raise RobotBusy(
-                f"The robot is driven by another session ({holder.label}); {wait}. Read-only tools and "
-                "resources still work meanwhile. For a robot per session, start the server as a fleet (--robots N)."
-                + mine
-            )
-        elif not driver.issued_now:
-            self._confirmed = True
+        elif holder is not None and holder.key != driver.key:
+            raise RobotBusy(self._busy(holder, driver))
         self._last = self._clock()
+        return took
+
+    def _busy(self, holder: Driver, driver: Driver) -> str:
+        if holder.connection is None:
+            limit = self._limit(holder)
+            left = max(0.0, limit - (self._clock() - self._last))
+            wait = f"it lets go {limit:g} s after its last call, in {left:.0f} s"
+        else:
+            wait = "it lets go when that client disconnects or its session idles out"
+        if driver.anonymous and holder.driver_id is not None:
+            return (
+                f"The robot is driven by a client that passes robot_id ({holder.label}); a call without robot_id "
+                f"may read but not act while {wait}. If that client is you, pass robot_id on every call."
+            )
+        return (
+            f"The robot is driven by another session ({holder.label}); {wait}. Read-only tools and "
+            "resources still work meanwhile. For a robot per client, start the server as a fleet (--robots N)."
+        )
 
     def release(self, key: Hashable) -> None:
         if self._holder is not None and self._holder.key == key:
             self._holder = None
 
-    def _idle_limit(self) -> float:
-        return self.idle_s if self._confirmed else min(self.idle_s, UNCONFIRMED_IDLE_S)
+    def _limit(self, holder: Driver) -> float:
+        """How long `holder` keeps the robot after its last call: the anonymous driver, which any
+        client without a handle is, `UNCONFIRMED_IDLE_S` at most; a handle, `idle_s`."""
+        return min(self.idle_s, UNCONFIRMED_IDLE_S) if holder.anonymous else self.idle_s
 
     def _expired(self) -> bool:
-        return self._clock() - self._last > self._idle_limit()
+        return self._holder is not None and self._clock() - self._last > self._limit(self._holder)
+
+
+class Presence:
+    """What the transport can tell of a session's client: whether it has gone (its event stream
+    closed, nothing in flight: `http.VanishedClients`), and a way to close such a session at once.
+    A robot held by a client that has gone is given to the next client that asks for it, without
+    waiting for the grace in which a client could open its stream again (the MCP Inspector's CLI is
+    one process per call, and exits without closing its session). Without a transport that tells
+    (stdio, in-process), nobody is ever absent."""
+
+    def __init__(self) -> None:
+        self._absent: Callable[[str], bool] | None = None
+        self._close: Callable[[str], Awaitable[None]] | None = None
+
+    def attach(self, absent: Callable[[str], bool], close: Callable[[str], Awaitable[None]]) -> None:
+        self._absent, self._close = absent, close
+
+    def absent(self, driver: Driver) -> bool:
+        sid = _session_id(driver)
+        return sid is not None and self._absent is not None and self._absent(sid)
+
+    async def let_go(self, driver: Driver) -> None:
+        """Close the session of `driver`, which has gone (its robot's lease ends with it)."""
+        sid = _session_id(driver)
+        if sid is not None and self._close is not None:
+            await self._close(sid)
+
+
+def _session_id(driver: Driver) -> str | None:
+    key = driver.key
+    if isinstance(key, tuple) and len(key) == 2 and key[0] == "session" and isinstance(key[1], str):
+        return key[1]
+    return None

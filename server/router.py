@@ -32,8 +32,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from robocog.server.config import DEFAULT_SESSION_IDLE_S
-from robocog.server.router_wire import driver_name, error_response, is_stopped, parse_message, say
+from robocog.server.config import DEFAULT_SESSION_IDLE_S, UNCONFIRMED_IDLE_S
+from robocog.server.router_wire import driver_name, error_response, is_stopped, mints_handle, parse_message, say
 from robocog.shared.web import CLIENT_KEEP_ALIVE_S
 
 if TYPE_CHECKING:
@@ -83,11 +83,16 @@ class Upstream:
     restarting: bool = False
     #: Whether the process is stopped (SIGSTOP): new sessions go elsewhere, its requests time out.
     stopped: bool = False
+    #: Robot handles of sessionless clients that this process minted, as last presented (handle -> when),
+    #: and the id-less calls sent here that mint one, not yet presented (when each was sent).
+    handles: dict[str, float] = field(default_factory=dict)
+    minting: list[float] = field(default_factory=list)
 
     def load(self, now: float | None = None) -> float:
         now = time.monotonic() if now is None else now
         fresh = sum(1 for sid, t in self.opened.items() if sid not in self.active and now - t < INIT_ONLY_S)
-        return (len(self.active) + fresh + self.pending) / max(1, self.robots)
+        held = len(self.active) + fresh + self.pending + len(self.handles) + len(self.minting)
+        return held / max(1, self.robots)
 
     def serving(self) -> bool:
         """Running, answering, and not being restarted."""
@@ -119,28 +124,43 @@ class Router:
         self._client: httpx2.AsyncClient | None = None
 
     def pick(self, body: bytes | dict[str, Any]) -> Upstream:
-        """The process for a request without a session id: the one that issued its driver id if it
-        gives one (a sessionless client keeps its robot), else the least loaded of those serving
-        (a new session)."""
+        """The process for a request without a session id: the one that minted the robot handle it
+        presents (`robot_id`, or its `_meta` alias: a sessionless client keeps its robot), else the least
+        loaded of those serving (a new session, or a call that mints a handle, which counts there
+        until it is presented or `UNCONFIRMED_IDLE_S` passes)."""
         self._forget_idle()
+        now = time.monotonic()
         message = body if isinstance(body, dict) else parse_message(body)
         alive = [u for u in self.upstreams if u.serving()] or self.upstreams
         driver = driver_name(message)
         if driver is not None:
-            origin = driver.split(".", 1)[0]  # an issued id names its process (server/ownership.py)
+            origin = driver.split(".", 1)[0]  # a minted handle names its process (server/ownership.py)
             if origin.isdigit() and int(origin) < len(self.upstreams):
-                return self.upstreams[int(origin)]
+                upstream = self.upstreams[int(origin)]
+                if driver not in upstream.handles and upstream.minting:
+                    upstream.minting.pop(0)  # the handle minted there is presented: counted once, as a handle
+                upstream.handles[driver] = now
+                return upstream
             digest = hashlib.sha256(driver.encode()).digest()
             return alive[int.from_bytes(digest[:4], "big") % len(alive)]
-        return min(alive, key=lambda u: (u.load(), u.index))
+        upstream = min(alive, key=lambda u: (u.load(now), u.index))
+        if mints_handle(message):
+            upstream.minting.append(now)
+        return upstream
 
     def _forget_idle(self) -> None:
         """Sessions the processes closed for idleness: quiet for `idle_s` since their last request
-        ended, and none in flight (an open GET stream keeps a session alive)."""
+        ended, and none in flight (an open GET stream keeps a session alive); handles as silent as
+        that, and minting calls whose handle was not presented within `UNCONFIRMED_IDLE_S`."""
         now = time.monotonic()
         for sid, upstream in list(self.by_session.items()):
             if not upstream.inflight.get(sid) and now - upstream.sessions.get(sid, now) > self.idle_s:
                 self._forget(sid)
+        for upstream in self.upstreams:
+            for handle, last in list(upstream.handles.items()):
+                if now - last > self.idle_s:
+                    del upstream.handles[handle]
+            upstream.minting[:] = [t for t in upstream.minting if now - t < UNCONFIRMED_IDLE_S]
 
     def _forget(self, sid: str) -> None:
         upstream = self.by_session.pop(sid, None)
@@ -208,8 +228,9 @@ class Router:
     def _authorized(self, request: Request) -> bool:
         if self.token is None:
             return True
-        given = request.headers.get("authorization", "")
-        return hmac.compare_digest(given.encode(), f"Bearer {self.token}".encode())
+        # as the SDK's auth middleware reads it in the fleet processes: the scheme in any case (RFC 7235)
+        scheme, _, given = request.headers.get("authorization", "").partition(" ")
+        return scheme.lower() == "bearer" and hmac.compare_digest(given.encode(), self.token.encode())
 
     async def handle(self, request: Request) -> Response:
         from starlette.responses import JSONResponse

@@ -124,6 +124,7 @@ class Fleet:
             env=self.env
             | {
                 "ROBOCOG_FLEET_PROCESS": f"{upstream.index + 1}/{len(self.upstreams)}",
+                "ROBOCOG_FLEET_ROBOTS": str(sum(u.robots for u in self.upstreams)),
                 PARENT_ENV: str(os.getpid()),
             },
             stdout=sys.stderr.buffer,

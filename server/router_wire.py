@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from robocog.shared.protocol import DRIVER_META_KEY
+from robocog.shared.protocol import DRIVER_META_KEY, ROBOT_ID_ARG
 
 if TYPE_CHECKING:
     from starlette.responses import Response
@@ -34,11 +34,33 @@ def parse_message(body: bytes) -> dict[str, Any]:
 
 
 def driver_name(message: dict[str, Any]) -> str | None:
-    """`params._meta["robocog/driver"]` of a JSON-RPC request, if it names one."""
+    """The robot handle a JSON-RPC request presents, if any: a tool call's `robot_id` argument, else
+    `params._meta["robocog/driver"]` (the alias robocog's own client sends)."""
     params = message.get("params")
-    meta = params.get("_meta") if isinstance(params, dict) else None
-    name = meta.get(DRIVER_META_KEY) if isinstance(meta, dict) else None
+    if not isinstance(params, dict):
+        return None
+    arguments = params.get("arguments")
+    name = arguments.get(ROBOT_ID_ARG) if isinstance(arguments, dict) else None
+    if name is None:
+        meta = params.get("_meta")
+        name = meta.get(DRIVER_META_KEY) if isinstance(meta, dict) else None
     return name if isinstance(name, str) and name else None
+
+
+#: The tools whose call without a handle mints one on a fleet and binds a robot to it (the read-only
+#: robot tools, and reset_world); a test holds this to the server's tools.
+MINTING_TOOLS = frozenset({"look_around", "look", "view_scratchpad", "search_memory", "reset_world"})
+
+
+def mints_handle(message: dict[str, Any]) -> bool:
+    """Whether a request without a handle is a tool call that mints one (`MINTING_TOOLS`)."""
+    params = message.get("params")
+    return (
+        message.get("method") == "tools/call"
+        and isinstance(params, dict)
+        and params.get("name") in MINTING_TOOLS
+        and driver_name(message) is None
+    )
 
 
 def say(line: str) -> None:

@@ -17,7 +17,7 @@ from mcp.server.mcpserver.exceptions import ToolError
 from robocog.server.clients import Clients
 from robocog.server.events import EventBus
 from robocog.server.fleet import Fleet, Robot
-from robocog.server.ownership import Driver, DriverIds
+from robocog.server.ownership import HOW_TO_GET_A_HANDLE, Driver, DriverIds
 from robocog.shared.protocol import DRIVER_META_KEY
 
 if TYPE_CHECKING:
@@ -63,11 +63,11 @@ class AppState:
         ctx = ctx or REQUEST.get()
         if ctx is None or self.fleet.shared:
             return await self.fleet.robot_for(None)
-        driver = driver or Driver.of(ctx, self.ids, issue=False)
-        if driver is None:
+        driver = driver or Driver.of(ctx, self.ids)
+        if driver.anonymous:
             raise ToolError(
-                "this server is a fleet: each driver reads its own robot. A client without a session sends, in "
-                f'_meta["{DRIVER_META_KEY}"], the driver id its first tool call returned in its result\'s _meta'
+                "this server is a fleet: each client reads its own robot. A client without a session sends its "
+                f"robot's handle (a tool's robot_id) in _meta[\"{DRIVER_META_KEY}\"]; to get one, {HOW_TO_GET_A_HANDLE}"
             )
         return await self.fleet.robot_for(driver)
 

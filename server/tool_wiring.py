@@ -20,7 +20,7 @@ from mcp_types import (
     ImageContent,
     TextContent,
 )
-from pydantic import BaseModel, ValidationError
+from pydantic import BaseModel, Field, ValidationError, create_model
 
 from robocog.server.clients import (
     WORLD_RESOURCES,
@@ -29,24 +29,65 @@ from robocog.server.clients import (
     connection_of,
 )
 from robocog.server.consent import ConsentGate
-from robocog.server.ownership import Driver, RobotBusy
+from robocog.server.fleet import FleetFull
+from robocog.server.ownership import HOW_TO_GET_A_HANDLE, Driver, RobotBusy
 from robocog.server.state import AppState
 from robocog.server.tools.base import Caller, ProgressFn, Tool
 from robocog.shared.perturbations import PERTURBATION_META_KEY
-from robocog.shared.protocol import DRIVER_META_KEY, MODEL_META_KEY
+from robocog.shared.protocol import DRIVER_META_KEY, MODEL_META_KEY, ROBOT_ID_ARG
 from robocog.shared.results import WithImage
 
 
-def _tool_result(result: BaseModel) -> CallToolResult:
+def _tool_result(result: BaseModel, handle: str | None = None) -> CallToolResult:
     """Structured content plus the same JSON as text; a failed action is marked as a tool error. A
     result with a picture attached (`WithImage`, e.g. look's) also gets it as an image content block
-    after the text: the JSON only describes it (`image`: type and size), never carries the bytes."""
+    after the text: the JSON only describes it (`image`: type and size), never carries the bytes.
+    `handle`: a robot handle minted for the caller by this call, returned as `robot_id` (and in
+    `_meta["robocog/driver"]`, the alias robocog's own client reads), with a sentence in the message."""
     data = result.model_dump(mode="json")
+    if handle is not None:
+        data[ROBOT_ID] = handle
+        data["message"] = f"{data.get('message') or ''} {handed(handle)}".strip()
     content: list[TextContent | ImageContent] = [TextContent(type="text", text=json.dumps(data, ensure_ascii=False))]
     if isinstance(result, WithImage) and result.image is not None and result.image_bytes is not None:
         encoded = base64.b64encode(result.image_bytes).decode("ascii")
         content.append(ImageContent(type="image", data=encoded, mime_type=result.image.mime_type))
-    return CallToolResult(content=content, structured_content=data, is_error=data.get("status") == "failure")
+    answer = CallToolResult(content=content, structured_content=data, is_error=data.get("status") == "failure")
+    if handle is not None:
+        answer.meta = {DRIVER_META_KEY: handle}
+    return answer
+
+
+def handed(handle: str) -> str:
+    """The sentence that hands a minted robot handle to its caller."""
+    return f"Your robot's handle: pass robot_id='{handle}' on later calls to keep driving this robot."
+
+
+#: The argument every robot tool and control takes (described once, here).
+ROBOT_ID = ROBOT_ID_ARG
+RobotIdArg = Annotated[
+    str | None,
+    Field(
+        description="Your robot's handle, only for clients without an MCP session (protocol 2026-07-28 over "
+        "HTTP): the robot_id a call without one returned. Leave it out over stdio or with a session, or on a "
+        "one-robot server where you are the only client.",
+        max_length=200,
+    ),
+]
+
+
+def with_handle(result_type: type[BaseModel]) -> type[BaseModel]:
+    """`result_type` with the optional `robot_id` a result carries when its call minted a handle (the
+    output schema declares it; the name and description stay the result's own)."""
+    return create_model(
+        result_type.__name__,
+        __base__=result_type,
+        __doc__=result_type.__doc__,
+        robot_id=(
+            str | None,
+            Field(default=None, description="a robot handle minted by this call: pass it as robot_id on later calls"),
+        ),
+    )
 
 
 def _progress(ctx: Context[AppState]) -> ProgressFn | None:
@@ -119,40 +160,46 @@ def register_tool(mcp: MCPServer[AppState], tool: Tool[Any], access: Access) -> 
         events = ctx.request_context.lifespan_context.events
         if events is None:
             return await act(ctx, arguments)
-        shown = {k: v for k, v in arguments.items() if k != "consent"}
+        shown = {k: v for k, v in arguments.items() if k not in ("consent", ROBOT_ID)}
         return await events.observe(tool.name, shown, lambda: act(ctx, arguments), client=_model_label(ctx))
 
     async def act(ctx: Context[AppState], arguments: dict[str, Any]) -> CallToolResult:
         state = ctx.request_context.lifespan_context
+        handle = arguments.pop(ROBOT_ID, None)
         if gate is not None:
-            gate.check(ctx, tool, arguments.pop("consent"))
-        # A call that needs a robot of its own (one that acts, or any on a fleet) gets a sessionless
-        # client a driver id when it sends none; the id goes back in the result's _meta.
-        driver = Driver.of(ctx.request_context, state.ids, issue=exclusive or not state.fleet.shared)
+            gate.check(ctx, tool, arguments.pop("consent"), handle)
+        driver = Driver.of(ctx.request_context, state.ids, handle=handle)
+        if driver.anonymous and not state.fleet.shared:
+            # A fleet: a robot is bound to a handle. A read-only robot call (or reset_world) mints one
+            # and binds a robot to it; a call that acts without one is refused and takes no robot.
+            if exclusive and tool.name != "reset_world":
+                raise ToolError(needs_handle(tool.name, state.fleet.capacity))
+            driver = driver.with_new_handle(state.ids)
         try:
-            result = await run(ctx, state, driver, arguments)
+            return await run(ctx, state, driver, arguments)
         except ToolError as exc:
-            if driver is None or not driver.issued_now:
+            if driver.minted is None or isinstance(exc, FleetFull):  # a handle without a robot is no use
                 raise
-            failed = CallToolResult(content=[TextContent(type="text", text=str(exc))], is_error=True)
-            failed.meta = {DRIVER_META_KEY: driver.driver_id}
+            text = f"{exc} {handed(driver.minted)}"
+            failed = CallToolResult(content=[TextContent(type="text", text=text)], is_error=True)
+            failed.meta = {DRIVER_META_KEY: driver.minted}
             return failed
-        if driver is not None and driver.issued_now:
-            result.meta = {**(result.meta or {}), DRIVER_META_KEY: driver.driver_id}
-        return result
 
-    async def run(
-        ctx: Context[AppState], state: AppState, driver: Driver | None, arguments: dict[str, Any]
-    ) -> CallToolResult:
+    async def run(ctx: Context[AppState], state: AppState, driver: Driver, arguments: dict[str, Any]) -> CallToolResult:
         robot = await state.robot(ctx.request_context, driver)
-        # A watcher's read-only calls on a shared robot are not the driver's episode's calls.
-        counts = not state.fleet.shared or robot.lease.holds(driver)
         if exclusive:
-            assert driver is not None
+            holder = robot.lease.holder
+            if holder is not None and holder.key != driver.key and state.fleet.presence.absent(holder):
+                robot.lease.release(holder.key)  # its client has gone (the MCP Inspector's CLI exits so)
+                await state.fleet.presence.let_go(holder)
             try:
-                robot.lease.claim(driver)
+                took = robot.lease.claim(driver)
             except RobotBusy as exc:
                 raise ToolError(str(exc)) from None
+            if driver.anonymous and (took or tool.name == "reset_world"):
+                driver = driver.minting(state.ids)  # the anonymous driver took the robot: a handle, if wanted
+        # A watcher's read-only calls on a shared robot are not the driver's episode's calls.
+        counts = not state.fleet.shared or robot.lease.holds(driver)
         caller = Caller(progress=_progress(ctx), model=_model_label(ctx), counts=counts)
         records: list[LogEntry] = []
         # The call's log records are collected only for a client that asked for them.
@@ -175,7 +222,7 @@ def register_tool(mcp: MCPServer[AppState], tool: Tool[Any], access: Access) -> 
                         await ctx.notify_resource_updated(uri)
             else:  # a fleet's robots are private: only the caller's own subscriptions hear of it
                 await state.clients.world_changed(only=connection_of(ctx.request_context))
-        answer = _tool_result(result)
+        answer = _tool_result(result, driver.minted)
         if happened:  # what went wrong during the call, for the client's trace (announced or not)
             events = [e.model_dump(mode="json") for e in happened]
             answer.meta = {**(answer.meta or {}), PERTURBATION_META_KEY: events}
@@ -184,8 +231,9 @@ def register_tool(mcp: MCPServer[AppState], tool: Tool[Any], access: Access) -> 
     keyword = inspect.Parameter.KEYWORD_ONLY
     parameters = [p.replace(kind=keyword) for p in tool.parameters]
     context = inspect.Parameter("ctx", keyword, annotation=Context[AppState])
-    extra = [gate.parameter(tool)] if gate is not None else []
-    returns = Annotated[CallToolResult, tool.result_type]
+    handle = inspect.Parameter(ROBOT_ID, keyword, default=None, annotation=RobotIdArg)
+    extra = [handle, *([gate.parameter(tool)] if gate is not None else [])]
+    returns = Annotated[CallToolResult, with_handle(tool.result_type)]
     handler.__signature__ = inspect.Signature([*parameters, context, *extra], return_annotation=returns)  # type: ignore[attr-defined]
     handler.__annotations__ = {p.name: p.annotation for p in [*parameters, *extra]} | {
         "ctx": Context[AppState],
@@ -193,6 +241,14 @@ def register_tool(mcp: MCPServer[AppState], tool: Tool[Any], access: Access) -> 
     }
     handler.__name__ = handler.__qualname__ = tool.name
     mcp.add_tool(handler, name=tool.name, title=tool.title, description=tool.description, annotations=tool.annotations)
+
+
+def needs_handle(tool: str, robots: int) -> str:
+    """The one line an id-less call that acts gets from a fleet."""
+    return (
+        f"This server is a fleet of {robots} robots, and {tool} acts on one: pass robot_id, your robot's handle. "
+        f"To get one, {HOW_TO_GET_A_HANDLE}; pass it as robot_id on every later call."
+    )
 
 
 def invalid_arguments(tool: str, error: ValidationError) -> str:

@@ -10,6 +10,11 @@ MODEL_META_KEY = "robocog/model"
 #: sends it back on every later call; the robot is held by one driver at a time (server/ownership.py).
 DRIVER_META_KEY = "robocog/driver"
 
+#: The argument every robot tool and control takes on a client without a session (MCP 2026-07-28 over
+#: HTTP): the robot handle the server minted (SEP-2567; server/ownership.py). A client never offers it to
+#: a model: robocog's own client passes the handle itself (or in `_meta["robocog/driver"]`, an alias).
+ROBOT_ID_ARG = "robot_id"
+
 #: Words every "the fleet is full" error of a server holds (a tool or resource error, a 503 at initialize):
 #: a client reports it as the server's answer and stops, never as the model's failure.
 FLEET_FULL = "robots of this server are driven by other sessions"
@@ -41,7 +46,7 @@ FURNITURE_TOOLS = frozenset({"open", "close"})
 
 #: The version of the published MCP contract (assets/contract/, CHANGELOG.md there). The server announces
 #: it in its instructions as "MCP contract X.Y"; `robocog contract` reads it back from there.
-CONTRACT_VERSION = "3.3"
+CONTRACT_VERSION = "4.0"
 
 #: The contract version in a server's instructions: "MCP contract 1.0", "contract 2.3".
 CONTRACT_VERSION_PATTERN = re.compile(r"\bcontract\s+v?(\d+(?:\.\d+)+)\b", re.IGNORECASE)

@@ -18,7 +18,7 @@ from typing import Any
 from pydantic import BaseModel, ConfigDict, Field
 
 from robocog.assets import ASSETS_DIR
-from robocog.shared.protocol import CONTROL_TOOLS, FURNITURE_TOOLS, VISION_TOOLS
+from robocog.shared.protocol import CONTROL_TOOLS, FURNITURE_TOOLS, ROBOT_ID_ARG, VISION_TOOLS
 
 
 def canonical_json(value: Any) -> bytes:
@@ -32,14 +32,18 @@ def sha256_of(value: Any) -> str:
 
 
 def function_definition(name: str, description: str | None, input_schema: dict[str, Any] | None) -> dict[str, Any]:
-    """An MCP tool as the OpenAI / LiteLLM function definition a model is offered."""
+    """An MCP tool as the OpenAI / LiteLLM function definition a model is offered: its input schema
+    without the robot handle (`ROBOT_ID_ARG`), which a client passes itself, never the model."""
+    parameters = input_schema or {"type": "object", "properties": {}}
+    properties = parameters.get("properties")
+    if isinstance(properties, dict) and ROBOT_ID_ARG in properties:
+        parameters = {**parameters, "properties": {k: v for k, v in properties.items() if k != ROBOT_ID_ARG}}
+        required = parameters.get("required")
+        if isinstance(required, list) and ROBOT_ID_ARG in required:
+            parameters["required"] = [r for r in required if r != ROBOT_ID_ARG]
     return {
         "type": "function",
-        "function": {
-            "name": name,
-            "description": description or name,
-            "parameters": input_schema or {"type": "object", "properties": {}},
-        },
+        "function": {"name": name, "description": description or name, "parameters": parameters},
     }
 
 

@@ -165,14 +165,15 @@ def installed_env() -> dict[str, str]:
 
 @contextmanager
 def http_server_process(
-    log: Path, *args: str, timeout_s: float = 60, env: dict[str, str] | None = None
+    log: Path, *args: str, timeout_s: float = 60, env: dict[str, str] | None = None, command: list[str] | None = None
 ) -> Iterator[tuple[str, subprocess.Popen[bytes]]]:
-    """`robocog-server --transport http ARGS` on a free loopback port, its output in `log` (and `env`
-    over `server_env()`); yields its /mcp URL and its process once it listens, then stops it."""
+    """`robocog-server --transport http ARGS` (or `command`'s, another install's) on a free loopback
+    port, its output in `log` (and `env` over `server_env()`); yields its /mcp URL and its process
+    once it listens, then stops it."""
     port = free_port()
     with log.open("wb") as out:
         proc = subprocess.Popen(
-            [*server_command(), "--transport", "http", "--port", str(port), *args],
+            [*(command or server_command()), "--transport", "http", "--port", str(port), *args],
             stdout=out,
             stderr=subprocess.STDOUT,
             env=server_env() | (env or {}),

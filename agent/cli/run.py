@@ -108,9 +108,17 @@ async def run_tasks(args: argparse.Namespace, tasks: Sequence[str] | None, loade
     console = make_console()
     ok = True
     conversation: list[dict[str, Any]] = []  # carried from task to task under the paper's protocol
-    if getattr(args, "view", None):
-        print(f"robocog: live viewer at http://127.0.0.1:{args.view}/", file=sys.stderr)
     async with connect(server_spec(args)) as robot:
+        if getattr(args, "view", None):  # announced once the page answers, not before
+            viewer = f"http://127.0.0.1:{args.view}/"
+            answered = await asyncio.to_thread(page_answers, viewer)
+            print(
+                f"robocog: live viewer at {viewer}"
+                if answered
+                else f"robocog: the live viewer at {viewer} "
+                f"did not answer within {VIEWER_WAIT_S:g} s; the run goes on without it",
+                file=sys.stderr,
+            )
         controls = EvalControls(mcp_call(robot.client, ServerConnectionError))
         await robot.claim()  # a full fleet: one line and exit 2, before the model starts
         if loader is not None:
@@ -171,6 +179,28 @@ async def run_tasks(args: argparse.Namespace, tasks: Sequence[str] | None, loade
         if getattr(args, "view", None):
             await keep_viewing(f"http://127.0.0.1:{args.view}/")
     return 0 if ok else 1
+
+
+#: How long `robocog run --view` waits for the viewer's page to answer before it says so.
+VIEWER_WAIT_S = 20.0
+
+
+def page_answers(url: str, timeout_s: float = VIEWER_WAIT_S) -> bool:
+    """Whether `url` (the live viewer's page, on loopback) answers 200 within `timeout_s`."""
+    import time
+    import urllib.error
+    import urllib.request
+
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        try:
+            with urllib.request.urlopen(url, timeout=2) as answer:
+                if answer.status == 200:
+                    return True
+        except (OSError, urllib.error.URLError):
+            pass
+        time.sleep(0.1)
+    return False
 
 
 async def keep_viewing(url: str) -> None:

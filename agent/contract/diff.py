@@ -32,6 +32,10 @@ RULES: dict[str, str] = {
     "experimental.robocog/driver.issued": (
         "a client without a session drives with the id the server issues, never with a name it gives itself"
     ),
+    "experimental.robocog/driver.handle": (
+        "a client without a session passes the robot handle the server minted as the robot_id argument; on a "
+        "fleet, a call that acts without one is refused and takes no robot"
+    ),
 }
 
 #: Exit codes of `robocog contract check`.

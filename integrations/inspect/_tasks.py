@@ -43,6 +43,7 @@ from inspect_ai.tool import (
     ToolCallView,
     ToolDef,
     ToolError,
+    ToolSource,
     mcp_connection,
     mcp_server_stdio,
     mcp_tools,
@@ -53,7 +54,7 @@ from robocog.agent.study_protocols import PROTOCOLS
 from robocog.inspect._transcript import believed_status as believed_status  # the package's, from here
 from robocog.inspect._transcript import ended, text_of
 from robocog.shared.controls import EvalControls
-from robocog.shared.protocol import PAPER_TOOLS
+from robocog.shared.protocol import PAPER_TOOLS, ROBOT_ID_ARG
 from robocog.shared.tasks import TaskSpec, load_tasks
 
 #: The eight tools offered to the model, in the paper's order (never a control, never the camera).
@@ -226,11 +227,27 @@ def robot_agent(
         prompt=AgentPrompt(
             instructions=system_prompt(), handoff_prompt=None, assistant_prompt=None, submit_prompt=None
         ),
-        tools=[mcp_tools(server, tools=list(tool_names))],
+        tools=[WithoutHandle(mcp_tools(server, tools=list(tool_names)))],
         submit=False,
         on_continue=stop_on_end_task(task_prompt, max_invocations),
         approval=[ApprovalPolicy(approver=nothing_after_end_task(), tools="*")],
     )
+
+
+class WithoutHandle(ToolSource):
+    """The server's tools as a model is offered them: without `robot_id`, the robot handle a client
+    passes itself (over stdio, as here, the connection is the driver and no handle is needed)."""
+
+    def __init__(self, source: ToolSource) -> None:
+        self.source = source
+
+    async def tools(self) -> list[Tool]:
+        offered = []
+        for tool in await self.source.tools():
+            definition = ToolDef(tool)
+            definition.parameters.properties.pop(ROBOT_ID_ARG, None)
+            offered.append(definition.as_tool())
+        return offered
 
 
 @solver

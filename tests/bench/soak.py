@@ -1,12 +1,14 @@
 """`make soak`: T1 episodes with memory against one real HTTP server, on both MCP protocol
-generations, printing the server's RSS per 100 episodes (bounded in time).
+generations and with a plain client, printing the server's RSS per 100 episodes (bounded in time).
 
 Each episode is what a harness does with memory: reset_world, begin_task("T1"), search_memory, the
 12 actions of T1, end_task, check_task. The session generation is an MCP session (the initialize
 handshake, protocol 2025-11-25); the sessionless one is the SDK's default `mcp.Client(url)`
-(protocol 2026-07-28), which sends back the driver id the server issued it. Each generation gets its
-own fresh server. Growth per 100 episodes is the slope of a least-squares line through the RSS
-samples after the warm-up (the first 100 episodes).
+(protocol 2026-07-28), which sends back the driver id the server issued it (in `_meta`, the alias
+robocog's own client uses); the plain one is that client as anyone would use it, which never sends
+a handle back (the anonymous driver of a one-robot server). Each generation gets its own fresh
+server. Growth per 100 episodes is the slope of a least-squares line through the RSS samples after
+the warm-up (the first 100 episodes).
 
     make soak                                   # SOAK_EPISODES=1000 per generation, SOAK_MINUTES=30 in all
     .venv/bin/python tests/bench/soak.py --episodes 300 --minutes 10
@@ -59,14 +61,14 @@ async def episodes(url: str, pid: int, generation: str, n: int, deadline: float,
     points: list[tuple[int, float]] = [(0, rss_mb(pid))]
     meta: dict[str, Any] | None = None
     started = time.monotonic()
-    done = 0
+    done = successes = 0
     async with Client(target, mode=mode) as client:
 
         async def call(tool: str, **arguments: Any) -> Any:
             nonlocal meta
             result = await client.call_tool(tool, arguments, meta=meta)  # type: ignore[arg-type]
             issued = (result.meta or {}).get(DRIVER_META_KEY)
-            if issued is not None:
+            if issued is not None and generation == "sessionless":  # the plain client never sends it back
                 meta = {DRIVER_META_KEY: issued}
             if result.is_error and tool not in ("grab", "place", "move_to"):
                 raise RuntimeError(f"{tool}: {result.content}")
@@ -81,6 +83,7 @@ async def episodes(url: str, pid: int, generation: str, n: int, deadline: float,
             await call("end_task", status="success", description="Put away all the items", summary=f"episode {episode}")
             verdict = await call("check_task", task_id="T1")
             assert light or verdict["success"], verdict
+            successes += bool(verdict["success"])
             done = episode
             if episode % EVERY == 0:
                 points.append((episode, round(rss_mb(pid), 1)))
@@ -89,6 +92,7 @@ async def episodes(url: str, pid: int, generation: str, n: int, deadline: float,
                 break
     return {
         "episodes": done,
+        "true_successes": successes,
         "episodes_per_min": round(60 * done / (time.monotonic() - started), 1),
         "rss_mb_per_100": points,
         "growth_mb_per_100_after_warm_up": slope_per_100(points),
@@ -114,7 +118,7 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--episodes", type=int, default=int(os.environ.get("SOAK_EPISODES", "1000")))
     parser.add_argument("--minutes", type=float, default=float(os.environ.get("SOAK_MINUTES", "30")))
-    parser.add_argument("--generations", default="session,sessionless")
+    parser.add_argument("--generations", default="session,sessionless,plain")
     parser.add_argument("--record", action="store_true", help="record the figures in docs/figures.json")
     parser.add_argument(
         "--light",

@@ -20,7 +20,7 @@ from mcp_types import ElicitRequestParams, ElicitResult
 from robocog.server.app import build_server
 from robocog.server.config import AccessConfig, SessionConfig
 from robocog.server.consent import NO_ELICITATION
-from robocog.server.ownership import RobotBusy, RobotLease
+from robocog.server.ownership import ANONYMOUS, Driver, RobotBusy, RobotLease
 from robocog.shared.errors import ConfigError
 from robocog.shared.protocol import DRIVER_META_KEY
 from tests.helpers import free_port, server_command
@@ -98,6 +98,24 @@ def test_every_request_needs_the_bearer_token(guarded: str) -> None:
     response = _post(guarded)
     assert response.status_code == 200
     _delete(guarded, response.headers["mcp-session-id"])
+
+
+def test_the_bearer_scheme_is_read_in_any_case_by_the_server_and_the_router(guarded: str) -> None:
+    from starlette.requests import Request
+
+    from robocog.server.router import Router
+
+    for scheme in ("bearer", "BEARER", "Bearer"):  # RFC 7235: the scheme is case-insensitive
+        response = _post(guarded, token=None, authorization=f"{scheme} {TOKEN}")
+        assert response.status_code == 200, scheme
+        _delete(guarded, response.headers["mcp-session-id"])
+    router = Router([], token=TOKEN)
+
+    def authorized(value: str) -> bool:
+        return router._authorized(Request({"type": "http", "headers": [(b"authorization", value.encode())]}))
+
+    assert all(authorized(f"{scheme} {TOKEN}") for scheme in ("bearer", "BEARER", "Bearer"))
+    assert not any(authorized(v) for v in (f"Basic {TOKEN}", "Bearer wrong-token-0123456789ab", TOKEN, ""))
 
 
 def test_foreign_origin_and_host_are_refused_even_with_the_token(guarded: str) -> None:
@@ -178,7 +196,6 @@ def test_binding_beyond_loopback_without_a_token_refuses_to_start() -> None:
 
 
 def test_the_lease_ends_after_a_sessionless_driver_goes_quiet() -> None:
-    from robocog.server.ownership import Driver
 
     now = [0.0]
     lease = RobotLease(idle_s=10, clock=lambda: now[0])
@@ -194,6 +211,31 @@ def test_the_lease_ends_after_a_sessionless_driver_goes_quiet() -> None:
     now[0] = 19.5
     lease.claim(b)
     assert lease.holder is b
+
+
+def test_a_handle_takes_the_robot_from_the_anonymous_driver_and_keeps_it() -> None:
+    now = [0.0]
+    lease = RobotLease(idle_s=600, clock=lambda: now[0])
+    anonymous = Driver(ANONYMOUS, "a client without a robot_id", None, anonymous=True)
+    handle = Driver(("driver", "h"), "robot h", None, "h")
+    other = Driver(("driver", "o"), "robot o", None, "o")
+    assert lease.claim(anonymous), "the free robot is taken"
+    assert not lease.claim(anonymous), "and held"
+    assert lease.claim(handle), "a handle presented takes it over from the anonymous driver"
+    with pytest.raises(RobotBusy, match="passes robot_id"):
+        lease.claim(anonymous)  # an id-less call may read, not act
+    with pytest.raises(RobotBusy, match=BUSY):
+        lease.claim(other)  # another handle waits its turn
+    now[0] = 599.0
+    with pytest.raises(RobotBusy):
+        lease.claim(anonymous)
+    now[0] = 1200.0  # the handle has been silent for its idle time: it let go
+    assert lease.claim(anonymous)
+    now[0] = 1229.0
+    with pytest.raises(RobotBusy, match="lets go 30 s after its last call"):
+        lease.claim(Driver(("session", "s"), "inspector (HTTP session)", None))
+    now[0] = 1231.0  # the anonymous driver keeps the robot 30 s at most
+    assert lease.claim(other)
 
 
 def _config(tmp_path: Path) -> SessionConfig:

@@ -251,7 +251,8 @@ async def test_every_tool_result_conforms_to_its_output_schema(
     await call("close", False, furniture="fridge")
     # open and close succeed in a world with containers: the next test.
     assert succeeded == set(tools) - FURNITURE_TOOLS
-    with_arguments = {n for n, t in tools.items() if t.input_schema.get("properties")}
+    # every tool takes robot_id (a robot handle, for clients without a session); its own arguments can be wrong
+    with_arguments = {n for n, t in tools.items() if set(t.input_schema.get("properties", {})) - {"robot_id"}}
     assert with_arguments <= failed
 
 

@@ -210,6 +210,10 @@ def test_run_view_keeps_the_viewer_until_ctrl_c(tmp_path: Path) -> None:
         deadline = time.monotonic() + 240
         while time.monotonic() < deadline:
             seen.append(proc.stderr.readline())
+            first = re.search(r"live viewer at (http://\S+/)", seen[-1])
+            if first and len([line for line in seen if "live viewer at" in line]) == 1:
+                with urllib.request.urlopen(first.group(1), timeout=5) as page:  # announced: it answers at once
+                    assert page.status == 200
             if "stays at" in seen[-1] or not seen[-1]:
                 break
         announced = re.search(r"live viewer at (http://127\.0\.0\.1:(\d+)/)", "".join(seen))

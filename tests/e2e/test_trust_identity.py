@@ -1,7 +1,9 @@
 """A robot belongs to one client, whatever protocol generation it speaks: two default SDK clients
-(`mcp.Client(url)`, sessionless MCP 2026-07-28) over real HTTP get robots of their own on a fleet,
-and on one robot the second is refused until the first lets go; a driver id cannot be made up, and
-a watcher's read-only calls are not the driver's. Real server processes on loopback."""
+(`mcp.Client(url)`, sessionless MCP 2026-07-28) over real HTTP that send back the handle the server
+minted them (here in `_meta["robocog/driver"]`, the alias robocog's own client uses; tests/e2e/
+test_any_client.py passes it as `robot_id`) get robots of their own on a fleet, and on one robot the
+second is refused until the first lets go; a handle cannot be made up, and a watcher's read-only
+calls are not the driver's. Real server processes on loopback."""
 
 from __future__ import annotations
 
@@ -65,8 +67,9 @@ class Driver:
 async def test_two_default_sdk_clients_get_robots_of_their_own_on_a_fleet(fleet_url: str) -> None:
     async with Client(fleet_url) as one, Client(fleet_url) as two:
         a, b = Driver(one), Driver(two)
-        await a.ok("add_to_scratchpad", text="a's secret plan")
+        await a.ok("look_around")  # an id-less read-only call mints a handle and binds a robot to it
         await b.ok("look_around")
+        await a.ok("add_to_scratchpad", text="a's secret plan")
         assert a.meta and b.meta and a.meta != b.meta, "each got an id of its own"
         await a.ok("move_to", location="Kitchen Door")
         pad = await b.ok("view_scratchpad")
@@ -77,21 +80,20 @@ async def test_two_default_sdk_clients_get_robots_of_their_own_on_a_fleet(fleet_
         real = str(a.meta[DRIVER_META_KEY])
         for fake in ("a", real[:-1] + ("0" if real[-1] != "0" else "1")):
             refused = await two.call_tool("move_to", {"location": "Living Room Door"}, meta={DRIVER_META_KEY: fake})  # type: ignore[arg-type]
-            assert refused.is_error and "not a driver id this server issued" in text(refused)
+            assert refused.is_error and "not a robot handle this server minted" in text(refused)
         assert (await a.ok("look_around"))["location"] == "Kitchen Door"
         # a resource read without an id has no robot on a fleet: told what to send
-        with pytest.raises(Exception, match="driver id"):
+        with pytest.raises(Exception, match="robot_id"):
             await two.read_resource("robocog://world/state")
 
 
 async def test_on_one_robot_the_second_default_client_is_refused_until_the_first_lets_go(robot_url: str) -> None:
     async with Client(robot_url) as one, Client(robot_url) as two:
         a, b = Driver(one), Driver(two)
-        await a.ok("move_to", location="Hallway Area Door")
+        await a.ok("move_to", location="Hallway Area Door")  # the anonymous driver takes it; a handle is minted
+        await a.ok("move_to", location="Kitchen Door")  # a presents its handle: from now on the handle holds
         refused = await b.call("move_to", location="Living Room Door")
-        assert refused.is_error and BUSY in text(refused), text(refused)
-        assert "send the id your first call returned" in text(refused)
-        await a.ok("move_to", location="Kitchen Door")  # a, with its id, still drives
+        assert refused.is_error and "passes robot_id" in text(refused), text(refused)
         # b watches: its read-only calls work and are not counted in a's episode
         for _ in range(5):
             assert (await b.ok("look_around"))["location"] == "Kitchen Door"
@@ -107,7 +109,8 @@ def test_the_contract_publishes_the_rule_and_the_checker_sees_it_go() -> None:
     from tests.helpers import CONTRACT_DIR
 
     live = json.loads((CONTRACT_DIR / "default.json").read_text(encoding="utf-8"))
-    assert "experimental.robocog/driver.issued" in live["capabilities"] and CONTRACT_VERSION.split(".")[0] == "3"
+    assert CONTRACT_VERSION.split(".")[0] == "4"
+    assert {"experimental.robocog/driver.issued", "experimental.robocog/driver.handle"} <= set(live["capabilities"])
     without = live | {"capabilities": [c for c in live["capabilities"] if not c.startswith("experimental")]}
     rule = "capability experimental.robocog/driver.issued"
     dropped = compare_contracts(live, without)
@@ -115,6 +118,8 @@ def test_the_contract_publishes_the_rule_and_the_checker_sees_it_go() -> None:
     # and against the 2.x files, which did not hold it, the rule arriving is the break 3.0 is numbered for
     added = compare_contracts(without, live)
     assert {c.kind for c in added if c.where == rule} == {"breaking"}
+    # as the handle rule arriving is the break 4.0 is numbered for
+    assert {c.kind for c in added if c.where == "capability experimental.robocog/driver.handle"} == {"breaking"}
     assert {c.kind for c in added if c.where == "capability experimental.robocog/driver"} == {"compatible"}
 
 
@@ -125,9 +130,10 @@ async def test_the_second_client_drives_once_the_first_lets_go(tmp_path: Path) -
         async with Client(url) as one, Client(url) as two:
             a, b = Driver(one), Driver(two)
             await a.ok("move_to", location="Hallway Area Door")
-            await a.ok("move_to", location="Kitchen Door")  # a sent its id back: its lease runs 2 s
+            await a.ok("move_to", location="Kitchen Door")  # a sent its handle back: its lease runs 2 s
             assert (await b.call("move_to", location="Living Room Door")).is_error
             await anyio.sleep(2.5)  # a is silent past --session-idle-s: it has let go
             assert (await b.ok("move_to", location="Hallway Area Door"))["location"] == "Hallway Area Door"
+            await b.ok("move_to", location="Kitchen Door")  # b presents the handle it was minted
             refused = await a.call("move_to", location="Kitchen Door")
             assert refused.is_error and BUSY in text(refused), "now a is the one refused"

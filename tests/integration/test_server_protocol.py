@@ -91,7 +91,7 @@ def text(result: Any) -> str:
 async def test_the_server_declares_logging_completions_and_subscriptions(desktop: Client, modern: Client) -> None:
     assert desktop.server_capabilities.model_dump(mode="json", by_alias=True, exclude_none=True) == {
         "completions": {},
-        "experimental": {"robocog/driver": {"issued": True}},  # contract 3.0: who a driver is
+        "experimental": {"robocog/driver": {"issued": True, "handle": True}},  # contract 3.0 and 4.0: who drives
         "logging": {},
         "prompts": {"listChanged": False},
         "resources": {"listChanged": False, "subscribe": True},
@@ -100,7 +100,7 @@ async def test_the_server_declares_logging_completions_and_subscriptions(desktop
     # from 2026-07-28 on, change notifications (and with them `subscribe`) go over subscriptions/listen
     assert modern.server_capabilities.model_dump(mode="json", by_alias=True, exclude_none=True) == {
         "completions": {},
-        "experimental": {"robocog/driver": {"issued": True}},
+        "experimental": {"robocog/driver": {"issued": True, "handle": True}},
         "logging": {},
         "prompts": {"listChanged": True},
         "resources": {"listChanged": True, "subscribe": True},

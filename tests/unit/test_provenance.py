@@ -112,3 +112,26 @@ def test_verified_only_with_shipped_prompt_tools_and_task_and_every_trace(tmp_pa
     present = trace_on_disk(tmp_path)
     assert present(good[0].model_copy(update={"trace": "t.jsonl"}))
     assert not present(good[0].model_copy(update={"trace": "gone.jsonl"})) and not present(good[0])
+
+
+#: The digest of the paper's eight tools as a model was offered them under contract 3.3, before every
+#: tool took `robot_id` (contract 4.0): a model's view of them must never change.
+PAPER_TOOLS_AS_OFFERED = "220bbe28ae5830bc85f6b81a736f63d93d989cd029b912b17aba50e8a3161de2"
+
+
+def test_a_model_is_offered_the_paper_tools_without_the_robot_handle() -> None:
+    import json
+
+    from robocog.shared.protocol import PAPER_TOOLS, ROBOT_ID_ARG
+    from robocog.shared.provenance import function_definition, tools_sha256
+    from tests.helpers import CONTRACT_DIR
+
+    tools = json.loads((CONTRACT_DIR / "default.json").read_text(encoding="utf-8"))["tools"]
+    assert all(ROBOT_ID_ARG in t["inputSchema"]["properties"] for t in tools), "the server declares it on every tool"
+    offered = [
+        function_definition(t["name"], t.get("description") or t.get("title"), t["inputSchema"])
+        for t in tools
+        if t["name"] in PAPER_TOOLS
+    ]
+    assert all(ROBOT_ID_ARG not in d["function"]["parameters"]["properties"] for d in offered)
+    assert tools_sha256(offered) == PAPER_TOOLS_AS_OFFERED
