@@ -13,8 +13,9 @@ in `http.py`.
 from __future__ import annotations
 
 import logging
+import sys
 import time
-from collections.abc import AsyncIterator, Iterable
+from collections.abc import AsyncIterator, Awaitable, Callable, Iterable
 from contextlib import asynccontextmanager
 from typing import TYPE_CHECKING, Any, Literal, TypeVar
 
@@ -142,6 +143,16 @@ def publish_driver_rule(mcp: MCPServer[AppState]) -> None:
     lowlevel.get_capabilities = get_capabilities  # type: ignore[method-assign]
 
 
+async def optional(what: str, run: Callable[[], Awaitable[None]]) -> None:
+    """Run an optional part of the server (the live viewer); if it fails, say so in one line and let
+    the MCP server carry on without it: nothing optional takes the robot down."""
+    try:
+        await run()
+    except Exception as exc:
+        why = f"{type(exc).__name__}: {exc}"
+        print(f"robocog-server: {what} stopped ({why}); the MCP server carries on", file=sys.stderr)
+
+
 def _auth(access: AccessConfig) -> dict[str, Any]:
     """The SDK's auth arguments for a bearer token (none without one)."""
     if access.auth_token is None:
@@ -242,7 +253,7 @@ def build_server(
         async with anyio.create_task_group() as tg:
             tg.start_soon(build)
             if viewer is not None:
-                tg.start_soon(viewer.run)
+                tg.start_soon(optional, "the live viewer", viewer.run)
             try:
                 yield state
             finally:

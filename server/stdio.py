@@ -76,12 +76,15 @@ async def _divert(fd: int, to: int) -> AsyncIterator[int]:
 
 
 def _watchable(fd: int) -> bool:
-    """Whether the event loop can watch `fd`: a pipe, a socket or a terminal (not a regular file)."""
+    """Whether the event loop can watch `fd`: a pipe, a socket or a terminal (not a regular file, nor
+    another device such as /dev/null)."""
     try:
         mode = os.fstat(fd).st_mode
     except OSError:
         return False
-    return stat.S_ISFIFO(mode) or stat.S_ISSOCK(mode) or stat.S_ISCHR(mode)
+    # A character device only when it is a terminal: epoll refuses /dev/null (EPERM), and uvloop's libuv
+    # aborts the process on that refusal (a server started with stdin from the null device died so).
+    return stat.S_ISFIFO(mode) or stat.S_ISSOCK(mode) or (stat.S_ISCHR(mode) and os.isatty(fd))
 
 
 @asynccontextmanager

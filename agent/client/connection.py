@@ -25,7 +25,7 @@ from mcp_types import CONNECTION_CLOSED, Tool
 from robocog.agent.client.lean import McpClient
 from robocog.shared import __version__
 from robocog.shared.errors import ServerConnectionError
-from robocog.shared.protocol import CONTRACT_VERSION_PATTERN, FLEET_FULL
+from robocog.shared.protocol import CONTRACT_VERSION, CONTRACT_VERSION_PATTERN, FLEET_FULL
 from robocog.shared.web import CLIENT_KEEP_ALIVE_S
 
 
@@ -106,7 +106,9 @@ class Robot:
         # any other answer is the model's to meet on its first call, as before
 
     def speaks(self, version: str) -> bool:
-        """Whether the server announces MCP contract `version` ("3.3") or a later one of its major."""
+        """Whether the server announces MCP contract `version` ("3.3") or a later one, up to the major this
+        client ships with (a client and its server ship together: the breaks up to it, as 4.0's robot handles,
+        kept what the earlier versions added; a later major may not have)."""
         if self.contract is None:
             return False
         try:
@@ -114,7 +116,7 @@ class Robot:
             wanted = tuple(int(part) for part in version.split("."))
         except ValueError:
             return False
-        return announced[0] == wanted[0] and announced >= wanted
+        return wanted <= announced and announced[0] <= int(CONTRACT_VERSION.split(".")[0])
 
     @property
     def can_check(self) -> bool:

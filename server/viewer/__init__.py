@@ -139,6 +139,8 @@ class Viewer:
         self._camera: dict[tuple[int, str], bytes] = {}
         self._camera_lock = anyio.Lock()
         self._server: _Embedded | None = None
+        #: Set by `stop`, which may come before `run` has begun to serve (a client that closed at once).
+        self._stopped = False
 
     @property
     def url(self) -> str:
@@ -169,6 +171,9 @@ class Viewer:
             sock.close()
             print(f"robocog-server: the live viewer cannot listen on {HOST}:{self.port}: {exc}", file=sys.stderr)
             return
+        if self._stopped:  # the server stopped before its viewer began
+            sock.close()
+            return
         sock.setblocking(False)
         self.port = sock.getsockname()[1]
         print(f"robocog-server: live viewer at {self.url}", file=sys.stderr, flush=True)
@@ -183,6 +188,7 @@ class Viewer:
             tg.cancel_scope.cancel()
 
     def stop(self) -> None:
+        self._stopped = True
         self.bus.close()
         if self._server is not None:
             self._server.stop()

@@ -233,3 +233,18 @@ def test_a_busy_viewer_port_leaves_the_mcp_server_running(tmp_path: Path) -> Non
             log = (tmp_path / "server.log").read_text()
             said = [line for line in log.splitlines() if f"port {port}" in line and "viewer" in line]
             assert len(said) == 1 and "in use" in said[0], log[-2000:]
+
+
+async def test_a_viewer_that_fails_leaves_the_mcp_server_running(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from robocog.server.app import optional
+
+    async def broken() -> None:
+        raise OSError("the socket went away")
+
+    await optional("the live viewer", broken)  # no exception escapes: the server's task group lives on
+    said = capsys.readouterr().err.strip().splitlines()
+    assert said == [
+        "robocog-server: the live viewer stopped (OSError: the socket went away); the MCP server carries on"
+    ]

@@ -130,7 +130,7 @@ async def test_look_is_published_read_only_with_its_size_in_the_description(robo
     tool = next(t for t in (await robot.list_tools()).tools if t.name == "look")
     assert tool.annotations is not None and tool.annotations.read_only_hint and not tool.annotations.open_world_hint
     assert "320x240 PNG" in (tool.description or "")
-    assert set(tool.input_schema["properties"]) == {"direction", "caption"}
+    assert set(tool.input_schema["properties"]) == {"direction", "caption", "robot_id"}  # every tool takes robot_id
 
 
 # --- the rendering, without MCP ------------------------------------------------------------------
