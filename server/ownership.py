@@ -120,11 +120,6 @@ class Driver:
     anonymous: bool = False
     minted: str | None = None
 
-    @property
-    def sessionless(self) -> bool:
-        """A client over HTTP without a session: known by its handle, or by none."""
-        return self.connection is None and (self.anonymous or self.driver_id is not None)
-
     def with_new_handle(self, ids: DriverIds) -> Driver:
         """This id-less caller as the holder of a handle minted for it now (a fleet binds a robot to it)."""
         new = ids.issue()
