@@ -58,7 +58,11 @@ class ConsentGate:
         gate = self
 
         async def ask(ctx: Context[Any], robot_id: str | None = None, **arguments: Any) -> Elicit[Decision] | Decision:
-            driver = Driver.of(ctx.request_context, ctx.request_context.lifespan_context.ids, handle=robot_id)
+            state = ctx.request_context.lifespan_context
+            driver = Driver.of(ctx.request_context, state.ids, handle=robot_id)
+            refused = state.refusal(driver, tool.name, exclusive=True)
+            if refused is not None:  # never ask the user about a call that cannot happen
+                raise ToolError(refused)
             if driver.key in gate._allowed:
                 return Decision(decision=ALLOW_SESSION)
             capabilities = ctx.client_capabilities

@@ -294,7 +294,10 @@ class Fleet:
 
     def full_message(self) -> str:
         """Why a new driver gets no robot, with the true counts (a router's process says whose)."""
-        advice = "close a session, wait for one to idle out, or start the server with more robots"
+        advice = (
+            "close a session or stop using a handle, wait for one to idle out (a robot whose handle was never "
+            f"presented is free again within {RECLAIM_AFTER_S:g} s), or start the server with more robots"
+        )
         routed = os.environ.get("ROBOCOG_FLEET_PROCESS", "")
         number, _, processes = routed.partition("/")
         total = os.environ.get("ROBOCOG_FLEET_ROBOTS", "")

@@ -39,10 +39,6 @@ Who a client is depends on how it is connected, and is never what it says its na
 
 from __future__ import annotations
 
-import hashlib
-import hmac
-import os
-import secrets
 import time
 from collections.abc import Awaitable, Callable, Hashable
 from dataclasses import dataclass, replace
@@ -54,12 +50,9 @@ from mcp.server.mcpserver.exceptions import ToolError
 from mcp_types.version import MODERN_PROTOCOL_VERSIONS
 
 from robocog.server.clients import connection_of
-from robocog.server.config import DEFAULT_SESSION_IDLE_S, DRIVER_SECRET_ENV, UNCONFIRMED_IDLE_S
+from robocog.server.config import DEFAULT_SESSION_IDLE_S, UNCONFIRMED_IDLE_S
+from robocog.server.handles import DriverIds, fingerprint
 from robocog.shared.protocol import DRIVER_META_KEY
-
-#: The environment variable that gives a server its id-signing secret (a router gives its fleet
-#: processes one, so an id issued by one is valid in all); without it, a random one per process.
-SECRET_ENV = DRIVER_SECRET_ENV
 
 
 class RobotBusy(Exception):
@@ -68,36 +61,6 @@ class RobotBusy(Exception):
 
 class UnknownDriver(ToolError):
     """`_meta["robocog/driver"]` holds something this server never issued."""
-
-
-class DriverIds:
-    """Issues and checks driver ids: `ORIGIN.TOKEN.MAC`, where ORIGIN names the fleet process that
-    issued it (a router sends the id's later calls there), TOKEN is random and MAC signs both."""
-
-    def __init__(self, secret: bytes | None = None, origin: str = "0") -> None:
-        if secret is None:
-            shared = os.environ.get(SECRET_ENV)
-            secret = shared.encode() if shared else secrets.token_bytes(32)
-        self._secret = secret
-        self.origin = origin
-
-    def _mac(self, body: str) -> str:
-        return hmac.new(self._secret, body.encode(), hashlib.sha256).hexdigest()[:32]
-
-    def issue(self) -> str:
-        body = f"{self.origin}.{secrets.token_urlsafe(18)}"
-        return f"{body}.{self._mac(body)}"
-
-    def valid(self, value: object) -> bool:
-        if not isinstance(value, str) or len(value) > 200 or value.count(".") != 2:
-            return False
-        body, _, mac = value.rpartition(".")
-        return hmac.compare_digest(mac, self._mac(body))
-
-
-def fingerprint(driver_id: str) -> str:
-    """What messages show of an id: enough to tell two apart, not enough to use one."""
-    return hashlib.sha256(driver_id.encode()).hexdigest()[:8]
 
 
 #: What every message that asks for a handle says about how to get one.
@@ -143,6 +106,7 @@ class Driver:
             return cls(("connection", id(connection)), client, connection)
         if connection.has_standalone_channel:  # 2026-07-28 over one duplex stream (stdio)
             return cls(("stream", connection.outbound), client, None)
+        handle = None if handle == "" else handle  # an empty robot_id is none
         named = handle if handle is not None else (ctx.meta or {}).get(DRIVER_META_KEY)
         if _transport_kind(ctx) == "direct":  # the SDK's in-process client: same process, same trust
             if isinstance(named, str) and named:
@@ -152,8 +116,9 @@ class Driver:
             if not isinstance(named, str) or not ids.valid(named):
                 where = "robot_id" if handle is not None else f'_meta["{DRIVER_META_KEY}"]'
                 raise UnknownDriver(
-                    f"{where} is not a robot handle this server minted; {HOW_TO_GET_A_HANDLE}, and pass it as "
-                    "robot_id on every later call (or leave robot_id out)"
+                    f"{where} is not a robot handle this server minted (a server's handles end when it restarts). "
+                    "Leave it out: on a one-robot server you then drive without one; on a fleet, "
+                    f"{HOW_TO_GET_A_HANDLE}, and pass that on every later call"
                 )
             return cls(("driver", named), f"robot {fingerprint(named)}", None, named)
         return cls(ANONYMOUS, "a client without a robot_id", None, anonymous=True)
@@ -196,33 +161,44 @@ class RobotLease:
         """Take the robot for `driver`, or raise `RobotBusy` if another holds it; whether `driver`
         took it with this call (it was free, or held by the anonymous driver and `driver` presents
         a handle)."""
+        refused = self.refusal(driver)
+        if refused is not None:
+            raise RobotBusy(refused)
         holder = self.holder
-        took = holder is None or (holder.key != driver.key and holder.anonymous and driver.driver_id is not None)
+        took = holder is None or holder.key != driver.key
         if took:
             self._holder = driver
             if driver.connection is not None:
                 driver.connection.exit_stack.callback(self.release, driver.key)
-        elif holder is not None and holder.key != driver.key:
-            raise RobotBusy(self._busy(holder, driver))
         self._last = self._clock()
         return took
 
-    def _busy(self, holder: Driver, driver: Driver) -> str:
+    def refusal(self, driver: Driver) -> str | None:
+        """Why `driver` may not act now (one line), or None: the robot is free, its own, or held by the
+        anonymous driver while `driver` presents a handle (which takes it over)."""
+        holder = self.holder
+        if holder is None or holder.key == driver.key or (holder.anonymous and driver.driver_id is not None):
+            return None
         if holder.connection is None:
             limit = self._limit(holder)
             left = max(0.0, limit - (self._clock() - self._last))
             wait = f"it lets go {limit:g} s after its last call, in {left:.0f} s"
         else:
             wait = "it lets go when that client disconnects or its session idles out"
-        if driver.anonymous and holder.driver_id is not None:
-            return (
-                f"The robot is driven by a client that passes robot_id ({holder.label}); a call without robot_id "
-                f"may read but not act while {wait}. If that client is you, pass robot_id on every call."
-            )
-        return (
-            f"The robot is driven by another session ({holder.label}); {wait}. Read-only tools and "
-            "resources still work meanwhile. For a robot per client, start the server as a fleet (--robots N)."
+        if holder.connection is not None:
+            who = f"another session ({holder.label})"
+        elif holder.anonymous:
+            who = "a client without a robot_id (no session, no handle)"
+        elif holder.driver_id is not None:
+            who = f"a client that passes robot_id ({holder.label})"
+        else:
+            who = f"another client ({holder.label})"
+        mine = (
+            " If that client is you, pass robot_id on every call."
+            if driver.anonymous and holder.driver_id is not None
+            else " For a robot per client, start the server as a fleet (--robots N)."
         )
+        return f"The robot is driven by {who}; {wait}. Read-only tools and resources still work meanwhile.{mine}"
 
     def release(self, key: Hashable) -> None:
         if self._holder is not None and self._holder.key == key:

@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from robocog.server.config import DEFAULT_SESSION_IDLE_S, UNCONFIRMED_IDLE_S
+from robocog.server.handles import DriverIds
 from robocog.server.router_wire import driver_name, error_response, is_stopped, mints_handle, parse_message, say
 from robocog.shared.web import CLIENT_KEEP_ALIVE_S
 
@@ -109,6 +110,7 @@ class Router:
         idle_s: float = DEFAULT_SESSION_IDLE_S,
         token: str | None = None,
         restart: Callable[[Upstream], None] | None = None,
+        ids: DriverIds | None = None,
     ) -> None:
         self.upstreams = upstreams
         self.idle_s = idle_s
@@ -119,6 +121,9 @@ class Router:
         self.lost: dict[str, int] = {}
         #: Starts a dead process again on its port (blocking; the router runs it on a thread).
         self.restart = restart
+        #: Checks a presented handle's signature (the processes' secret): a forged one is not counted
+        #: as a process's load, nor kept (the process refuses its call).
+        self.ids = ids
         #: How long a request waits for its process to start answering.
         self.answer_timeout_s = float(os.environ.get("ROBOCOG_ROUTER_ANSWER_TIMEOUT_S") or ANSWER_TIMEOUT_S)
         self._client: httpx2.AsyncClient | None = None
@@ -133,6 +138,8 @@ class Router:
         message = body if isinstance(body, dict) else parse_message(body)
         alive = [u for u in self.upstreams if u.serving()] or self.upstreams
         driver = driver_name(message)
+        if driver is not None and self.ids is not None and not self.ids.valid(driver):
+            driver = None  # forged: the least loaded process refuses it, and nothing is counted
         if driver is not None:
             origin = driver.split(".", 1)[0]  # a minted handle names its process (server/ownership.py)
             if origin.isdigit() and int(origin) < len(self.upstreams):
@@ -144,7 +151,7 @@ class Router:
             digest = hashlib.sha256(driver.encode()).digest()
             return alive[int.from_bytes(digest[:4], "big") % len(alive)]
         upstream = min(alive, key=lambda u: (u.load(now), u.index))
-        if mints_handle(message):
+        if mints_handle(message) and driver_name(message) is None:
             upstream.minting.append(now)
         return upstream
 

@@ -14,6 +14,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from robocog.server.config import DRIVER_SECRET_ENV, event_loop_options
+from robocog.server.handles import DriverIds
 from robocog.server.router import Router, Upstream
 from robocog.shared.errors import ConfigError
 from robocog.shared.process import PARENT_ENV, die_with_parent, free_port, wait_listening
@@ -91,7 +92,8 @@ class Fleet:
         except BaseException:
             self.stop()
             raise
-        return Router(self.upstreams, idle_s=self.session_idle_s, token=self.auth_token, restart=self.restart)
+        ids = DriverIds(secret=self.driver_secret.encode())  # the router counts only handles its processes minted
+        return Router(self.upstreams, idle_s=self.session_idle_s, token=self.auth_token, restart=self.restart, ids=ids)
 
     def __exit__(self, *exc: object) -> None:
         self.stop()

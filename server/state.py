@@ -17,7 +17,8 @@ from mcp.server.mcpserver.exceptions import ToolError
 from robocog.server.clients import Clients
 from robocog.server.events import EventBus
 from robocog.server.fleet import Fleet, Robot
-from robocog.server.ownership import HOW_TO_GET_A_HANDLE, Driver, DriverIds
+from robocog.server.handles import DriverIds
+from robocog.server.ownership import HOW_TO_GET_A_HANDLE, Driver
 from robocog.shared.protocol import DRIVER_META_KEY
 
 if TYPE_CHECKING:
@@ -71,6 +72,20 @@ class AppState:
             )
         return await self.fleet.robot_for(driver)
 
+    def refusal(self, driver: Driver, tool: str, *, exclusive: bool) -> str | None:
+        """Why a call by `driver` to `tool` is refused before it runs, or None: a fleet's id-less call that
+        acts, or a one-robot server held by another driver (whose client has not gone). Asked before the
+        user's consent too, so that the user is never asked about a call that cannot happen."""
+        if not exclusive:
+            return None
+        if not self.fleet.shared:
+            return needs_handle(tool, self.fleet.capacity) if driver.anonymous and tool != "reset_world" else None
+        first = self.fleet.first
+        holder = first.lease.holder if first is not None else None
+        if first is None or holder is None or self.fleet.presence.absent(holder):
+            return None
+        return first.lease.refusal(driver)
+
     async def run(self, fn: Callable[[RobotSession], T], ctx: ServerRequestContext[Any, Any] | None = None) -> T:
         """Run `fn(session)` on the caller's robot (see `robot`), serialised, to completion.
 
@@ -91,3 +106,11 @@ def fleet_origin() -> str:
     it issues name it (the router sends an id's calls to the process that issued it); "0" alone."""
     number = os.environ.get("ROBOCOG_FLEET_PROCESS", "1/1").split("/", 1)[0]
     return str(int(number) - 1) if number.isdigit() and int(number) > 0 else "0"
+
+
+def needs_handle(tool: str, robots: int) -> str:
+    """The one line an id-less call that acts gets from a fleet."""
+    return (
+        f"This server is a fleet of {robots} robots, and {tool} acts on one: pass robot_id, your robot's handle. "
+        f"To get one, {HOW_TO_GET_A_HANDLE}; pass it as robot_id on every later call."
+    )

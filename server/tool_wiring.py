@@ -30,7 +30,7 @@ from robocog.server.clients import (
 )
 from robocog.server.consent import ConsentGate
 from robocog.server.fleet import FleetFull
-from robocog.server.ownership import HOW_TO_GET_A_HANDLE, Driver, RobotBusy
+from robocog.server.ownership import Driver, RobotBusy
 from robocog.server.state import AppState
 from robocog.server.tools.base import Caller, ProgressFn, Tool
 from robocog.shared.perturbations import PERTURBATION_META_KEY
@@ -38,23 +38,32 @@ from robocog.shared.protocol import DRIVER_META_KEY, MODEL_META_KEY, ROBOT_ID_AR
 from robocog.shared.results import WithImage
 
 
-def _tool_result(result: BaseModel, handle: str | None = None) -> CallToolResult:
+def _tool_result(result: BaseModel) -> CallToolResult:
     """Structured content plus the same JSON as text; a failed action is marked as a tool error. A
     result with a picture attached (`WithImage`, e.g. look's) also gets it as an image content block
-    after the text: the JSON only describes it (`image`: type and size), never carries the bytes.
-    `handle`: a robot handle minted for the caller by this call, returned as `robot_id` (and in
-    `_meta["robocog/driver"]`, the alias robocog's own client reads), with a sentence in the message."""
+    after the text: the JSON only describes it (`image`: type and size), never carries the bytes."""
     data = result.model_dump(mode="json")
-    if handle is not None:
-        data[ROBOT_ID] = handle
-        data["message"] = f"{data.get('message') or ''} {handed(handle)}".strip()
     content: list[TextContent | ImageContent] = [TextContent(type="text", text=json.dumps(data, ensure_ascii=False))]
     if isinstance(result, WithImage) and result.image is not None and result.image_bytes is not None:
         encoded = base64.b64encode(result.image_bytes).decode("ascii")
         content.append(ImageContent(type="image", data=encoded, mime_type=result.image.mime_type))
-    answer = CallToolResult(content=content, structured_content=data, is_error=data.get("status") == "failure")
-    if handle is not None:
-        answer.meta = {DRIVER_META_KEY: handle}
+    return CallToolResult(content=content, structured_content=data, is_error=data.get("status") == "failure")
+
+
+def hand_over(answer: CallToolResult, handle: str) -> CallToolResult:
+    """`answer` with the robot handle its call minted: `robot_id` in the structured content (and its JSON
+    text), a sentence in the message, and `_meta["robocog/driver"]`, the alias robocog's own client
+    reads. Added after the live viewer has seen the answer: a handle is only ever its caller's."""
+    data = answer.structured_content
+    first = answer.content[0] if answer.content else None
+    if isinstance(data, dict):
+        data = {**data, ROBOT_ID: handle, "message": f"{data.get('message') or ''} {handed(handle)}".strip()}
+        answer.structured_content = data
+        text = TextContent(type="text", text=json.dumps(data, ensure_ascii=False))
+        answer.content = [text, *answer.content[1:]]
+    elif isinstance(first, TextContent):
+        answer.content = [TextContent(type="text", text=f"{first.text} {handed(handle)}"), *answer.content[1:]]
+    answer.meta = {**(answer.meta or {}), DRIVER_META_KEY: handle}
     return answer
 
 
@@ -158,34 +167,40 @@ def register_tool(mcp: MCPServer[AppState], tool: Tool[Any], access: Access) -> 
 
     async def handler(ctx: Context[AppState], **arguments: Any) -> CallToolResult:
         events = ctx.request_context.lifespan_context.events
+        minted: list[str] = []  # a handle this call mints for its caller (act says), handed over last
         if events is None:
-            return await act(ctx, arguments)
-        shown = {k: v for k, v in arguments.items() if k not in ("consent", ROBOT_ID)}
-        return await events.observe(tool.name, shown, lambda: act(ctx, arguments), client=_model_label(ctx))
+            answer = await act(ctx, arguments, minted)
+        else:
+            shown = {k: v for k, v in arguments.items() if k not in ("consent", ROBOT_ID)}
+            call = lambda: act(ctx, arguments, minted)  # noqa: E731
+            answer = await events.observe(tool.name, shown, call, client=_model_label(ctx))
+        return hand_over(answer, minted[0]) if minted else answer
 
-    async def act(ctx: Context[AppState], arguments: dict[str, Any]) -> CallToolResult:
+    async def act(ctx: Context[AppState], arguments: dict[str, Any], minted: list[str]) -> CallToolResult:
         state = ctx.request_context.lifespan_context
         handle = arguments.pop(ROBOT_ID, None)
         if gate is not None:
             gate.check(ctx, tool, arguments.pop("consent"), handle)
         driver = Driver.of(ctx.request_context, state.ids, handle=handle)
-        if driver.anonymous and not state.fleet.shared:
-            # A fleet: a robot is bound to a handle. A read-only robot call (or reset_world) mints one
-            # and binds a robot to it; a call that acts without one is refused and takes no robot.
-            if exclusive and tool.name != "reset_world":
-                raise ToolError(needs_handle(tool.name, state.fleet.capacity))
+        refusal = state.refusal(driver, tool.name, exclusive=exclusive)
+        if refusal is not None:
+            raise ToolError(refusal)
+        if driver.anonymous and not state.fleet.shared:  # a fleet: a read-only call or reset_world mints a handle
             driver = driver.with_new_handle(state.ids)
         try:
-            return await run(ctx, state, driver, arguments)
+            answer, driver = await run(ctx, state, driver, arguments)
         except ToolError as exc:
             if driver.minted is None or isinstance(exc, FleetFull):  # a handle without a robot is no use
                 raise
-            text = f"{exc} {handed(driver.minted)}"
-            failed = CallToolResult(content=[TextContent(type="text", text=text)], is_error=True)
-            failed.meta = {DRIVER_META_KEY: driver.minted}
-            return failed
+            minted.append(driver.minted)
+            return CallToolResult(content=[TextContent(type="text", text=str(exc))], is_error=True)
+        if driver.minted is not None:
+            minted.append(driver.minted)
+        return answer
 
-    async def run(ctx: Context[AppState], state: AppState, driver: Driver, arguments: dict[str, Any]) -> CallToolResult:
+    async def run(
+        ctx: Context[AppState], state: AppState, driver: Driver, arguments: dict[str, Any]
+    ) -> tuple[CallToolResult, Driver]:
         robot = await state.robot(ctx.request_context, driver)
         if exclusive:
             holder = robot.lease.holder
@@ -222,11 +237,11 @@ def register_tool(mcp: MCPServer[AppState], tool: Tool[Any], access: Access) -> 
                         await ctx.notify_resource_updated(uri)
             else:  # a fleet's robots are private: only the caller's own subscriptions hear of it
                 await state.clients.world_changed(only=connection_of(ctx.request_context))
-        answer = _tool_result(result, driver.minted)
+        answer = _tool_result(result)
         if happened:  # what went wrong during the call, for the client's trace (announced or not)
             events = [e.model_dump(mode="json") for e in happened]
             answer.meta = {**(answer.meta or {}), PERTURBATION_META_KEY: events}
-        return answer
+        return answer, driver
 
     keyword = inspect.Parameter.KEYWORD_ONLY
     parameters = [p.replace(kind=keyword) for p in tool.parameters]
@@ -241,14 +256,6 @@ def register_tool(mcp: MCPServer[AppState], tool: Tool[Any], access: Access) -> 
     }
     handler.__name__ = handler.__qualname__ = tool.name
     mcp.add_tool(handler, name=tool.name, title=tool.title, description=tool.description, annotations=tool.annotations)
-
-
-def needs_handle(tool: str, robots: int) -> str:
-    """The one line an id-less call that acts gets from a fleet."""
-    return (
-        f"This server is a fleet of {robots} robots, and {tool} acts on one: pass robot_id, your robot's handle. "
-        f"To get one, {HOW_TO_GET_A_HANDLE}; pass it as robot_id on every later call."
-    )
 
 
 def invalid_arguments(tool: str, error: ValidationError) -> str:

@@ -35,7 +35,9 @@ INITIALIZE = {
     "params": {"protocolVersion": "2025-11-25", "capabilities": {}, "clientInfo": {"name": "probe", "version": "1"}},
 }
 ACCEPT = {"accept": "application/json, text/event-stream", "content-type": "application/json"}
-BUSY = "driven by another session"
+BUSY = "driven by another session"  # the holder is a session
+OTHER = "driven by another client"  # an in-process client, known by the name it gives
+HANDLE_HOLDS = "driven by a client that passes robot_id"
 
 
 def _wait_for_port(proc: subprocess.Popen[bytes], port: int, log: Path) -> None:
@@ -224,7 +226,7 @@ def test_a_handle_takes_the_robot_from_the_anonymous_driver_and_keeps_it() -> No
     assert lease.claim(handle), "a handle presented takes it over from the anonymous driver"
     with pytest.raises(RobotBusy, match="passes robot_id"):
         lease.claim(anonymous)  # an id-less call may read, not act
-    with pytest.raises(RobotBusy, match=BUSY):
+    with pytest.raises(RobotBusy, match=HANDLE_HOLDS):
         lease.claim(other)  # another handle waits its turn
     now[0] = 599.0
     with pytest.raises(RobotBusy):
@@ -250,7 +252,7 @@ async def test_sessionless_clients_are_told_apart_by_their_driver_name(tmp_path:
         assert not (await client.call_tool("move_to", {"location": "Kitchen Door"}, meta=ours)).is_error  # type: ignore[arg-type]
         theirs = {DRIVER_META_KEY: "run-2"}
         refused = await client.call_tool("move_to", {"location": "Hallway Area Door"}, meta=theirs)  # type: ignore[arg-type]
-        assert refused.is_error and BUSY in refused.content[0].text  # type: ignore[union-attr]
+        assert refused.is_error and OTHER in refused.content[0].text  # type: ignore[union-attr]
 
 
 def _answering(decision: str | None, asked: list[str]) -> Any:

@@ -102,6 +102,8 @@ async def test_a_handle_holds_the_robot_and_an_id_less_intruder_may_only_read(ro
         assert looked["location"] == "Kitchen Door"
         pad = await ok(holder, "view_scratchpad", robot_id=handle)
         assert "mine" not in json.dumps(pad) and "the holder's plan" in json.dumps(pad), "pads apart"
+        empty = await intruder.call_tool("move_to", {"location": "Front Door", "robot_id": ""})
+        assert empty.is_error and "passes robot_id" in text(empty), "an empty robot_id is no handle"
         forged = await intruder.call_tool("move_to", {"location": "Front Door", "robot_id": handle[:-1] + "x"})
         assert forged.is_error and "not a robot handle this server minted" in text(forged)
         assert (await ok(holder, "look_around", robot_id=handle))["location"] == "Kitchen Door", "never disturbed"
@@ -162,6 +164,9 @@ async def test_through_the_router_handles_spread_over_the_processes(tmp_path: Pa
         async with Client(url) as client:
             refused = await client.call_tool("grab", {"object": "cube"})
             assert refused.is_error and "robot_id" in text(refused)
+            for i in range(8):  # forged handles naming process 0: refused, and never counted as its load
+                forged = await client.call_tool("look_around", {"robot_id": f"0.forged{i}.deadbeef"})
+                assert forged.is_error and "not a robot handle this server minted" in text(forged)
             handles = []
             for _ in range(4):
                 handles.append((await ok(client, "look_around"))["robot_id"])
@@ -186,8 +191,20 @@ async def test_consent_works_for_a_plain_client(tmp_path: Path) -> None:
             moved = await ok(client, "move_to", location="Hallway Area Door")
             assert moved["location"] == "Hallway Area Door" and len(asked) == 1
             assert "move_to(location='Hallway Area Door')" in asked[0]
+            handle = moved["robot_id"]  # the call that took the robot minted a handle: present it
+            await ok(client, "move_to", location="Kitchen Door", robot_id=handle)
+            assert len(asked) == 2
+        others: list[str] = []
+
+        async def other(context: Any, params: ElicitRequestParams) -> ElicitResult:
+            others.append(params.message)
+            return ElicitResult(action="accept", content={"decision": "allow once"})
+
+        async with Client(url, elicitation_callback=other) as intruder:  # the handle holds: refused unasked
+            refused = await intruder.call_tool("move_to", {"location": "Living Room Door"})
+            assert refused.is_error and "passes robot_id" in text(refused) and others == [], others
         async with Client(url) as mute:  # no elicitation: told what to do, the robot does not move
-            refused = await mute.call_tool("move_to", {"location": "Kitchen Door"})
+            refused = await mute.call_tool("move_to", {"location": "Kitchen Door", "robot_id": handle})
             assert refused.is_error and "elicitation" in text(refused)
 
 
@@ -248,3 +265,25 @@ async def test_a_viewer_that_fails_leaves_the_mcp_server_running(
     assert said == [
         "robocog-server: the live viewer stopped (OSError: the socket went away); the MCP server carries on"
     ]
+
+
+def test_the_live_viewer_never_shows_a_handle(tmp_path: Path) -> None:
+    import re
+    import urllib.request
+
+    log = tmp_path / "server.log"
+    with http_server_process(log, "--profile", "eval", "--view", "0", "--data-dir", str(tmp_path / "m")) as (url, _):
+
+        async def drive() -> str:
+            async with Client(url) as client:
+                handle = str((await ok(client, "reset_world"))["robot_id"])
+                await ok(client, "move_to", location="Kitchen Door", robot_id=handle)
+                return handle
+
+        handle = anyio.run(drive)
+        viewer = re.search(r"live viewer at (http://\S+/)", log.read_text())
+        assert viewer, log.read_text()[-2000:]
+        with urllib.request.urlopen(viewer.group(1) + "api/state", timeout=10) as page:
+            shown = page.read().decode()
+        assert "reset_world" in shown and "move_to" in shown, "the calls are shown"
+        assert handle not in shown and handle.rsplit(".", 1)[-1] not in shown, "their handle is not"
