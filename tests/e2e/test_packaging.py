@@ -117,6 +117,75 @@ def test_entry_point_turns_settings_into_server_options(given: list[str], expect
     assert launcher().server_argv(given) == expected
 
 
+def bundled(name: str) -> str:
+    """A file of dist/robocog.mcpb, as text (skips when the bundle is not built)."""
+    if not BUNDLE.exists():
+        pytest.skip("dist/robocog.mcpb is missing: build it with `make bundle`")
+    with zipfile.ZipFile(BUNDLE) as bundle:
+        return bundle.read(name).decode("utf-8")
+
+
+def builder() -> ModuleType:
+    """packaging/build_bundle.py, imported from its file."""
+    spec = importlib.util.spec_from_file_location("robocog_build_bundle", PACKAGING / "build_bundle.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # its dataclass looks its module up
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_bundle_runs_one_python_with_wheels_on_every_platform_it_claims() -> None:
+    """The bundle's project pins the Python the manifest names, and is locked for the manifest's
+    platforms only, with a wheel of every package required in each (uv refuses to lock otherwise) and
+    no build from source at install."""
+    manifest = json.loads(bundled("manifest.json"))
+    project = tomllib.loads(bundled("pyproject.toml"))
+    python = builder().BUNDLE_PYTHON
+    assert project["project"]["requires-python"] == f"=={python}.*"
+    assert bundled(".python-version").strip() == python
+    low, high = python.split(".")
+    assert manifest["compatibility"]["runtimes"]["python"] == f">={low}.{high} <{low}.{int(high) + 1}"
+    claimed = [t.marker for p in manifest["compatibility"]["platforms"] for t in builder().PLATFORMS[p]]
+    assert project["tool"]["uv"]["environments"] == claimed
+    assert project["tool"]["uv"]["required-environments"] == claimed
+    assert project["tool"]["uv"]["no-build"] is True
+    lock = tomllib.loads(bundled("uv.lock"))
+    assert lock["requires-python"] == f"=={python}.*"
+
+    def terms(markers: list[str]) -> set[frozenset[str]]:
+        return {frozenset(m.split(" and ")) for m in markers}
+
+    assert terms(lock["required-markers"]) == terms(lock["supported-markers"]) == terms(claimed)
+
+
+@pytest.mark.parametrize(
+    ("platform", "machine", "python", "physics"),
+    [
+        ("linux", "x86_64", "3.11", "pybullet"),
+        ("linux", "x86_64", "3.12", "pybullet-arm64"),
+        ("linux", "x86_64", "3.13", "pybullet-arm64"),
+        ("darwin", "arm64", "3.11", "pybullet-arm64"),
+        ("darwin", "x86_64", "3.12", "pybullet-arm64"),
+        ("win32", "AMD64", "3.11", "pybullet-arm64"),
+    ],
+)
+def test_one_physics_build_per_environment(platform: str, machine: str, python: str, physics: str) -> None:
+    """The project requires exactly one of the two builds of the `pybullet` module in each environment:
+    upstream where its wheels are (Linux, CPython 3.11), the fork everywhere else."""
+    from packaging.requirements import Requirement
+
+    with open(REPO / "pyproject.toml", "rb") as f:
+        requirements = [Requirement(r) for r in tomllib.load(f)["project"]["dependencies"]]
+    environment = {"sys_platform": platform, "platform_machine": machine, "python_version": python}
+    wanted = [
+        r.name
+        for r in requirements
+        if r.name in ("pybullet", "pybullet-arm64") and (r.marker is None or r.marker.evaluate(environment))
+    ]
+    assert wanted == [physics]
+
+
 def test_the_wheel_carries_every_asset() -> None:
     """A wheel install is as complete as a checkout: every file under assets/ is in the wheel."""
     if not BUNDLE.exists():
