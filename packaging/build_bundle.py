@@ -36,9 +36,9 @@ SOURCE = ROOT / "packaging" / "bundle"
 # Files a host never needs: an environment, caches, the packer's own ignore list.
 SKIPPED_NAMES = {".venv", "__pycache__", ".DS_Store", ".mcpbignore"}
 
-#: The bundle's Python (a minor version): the one with a physics wheel on every platform below (upstream
-#: PyBullet has Linux x86_64 wheels for CPython 3.10-3.11 only; the fork pybullet-arm64's macOS x86_64
-#: wheels stop at 3.12). uv fetches it where the machine has another.
+#: The bundle's Python (a minor version): one, so that each platform below gets one physics build, and
+#: this one, as upstream PyBullet (Linux's: pyproject.toml) has wheels for CPython 3.10-3.11 only; the fork
+#: has them for 3.11 on macOS and Windows too. uv fetches it where the machine has another.
 BUNDLE_PYTHON = "3.11"
 
 
