@@ -122,10 +122,13 @@ docs: $(DOCS_STAMP) $(TYPES) ## Build the docs site into build/site (strict: a b
 bundle: $(CORE) ## Build the MCP Bundle dist/robocog.mcpb (manifest 0.4, server type uv; installs the core only; needs the package index)
 	$(BIN)/python packaging/build_bundle.py
 
-# The official packer (pinned, from npm) validates the manifest and packs the staged bundle (needs Node.js).
+# The staged bundle's lock resolves from wheels alone for every platform its manifest claims and every Python
+# its project allows (the matrix is printed; a hole fails), then the official packer (pinned, from npm)
+# validates the manifest and packs the staged bundle (needs Node.js and the package index).
 MCPB := npx --yes @anthropic-ai/mcpb@2.1.2
-bundle-check: ## Check the bundle with the official MCP Bundle packer (needs Node.js; builds it when missing)
+bundle-check: ## Check the bundle: wheels on every platform it claims, then the official MCP Bundle packer (builds it when missing)
 	@test -f build/bundle/manifest.json || $(MAKE) bundle
+	$(BIN)/python packaging/check_wheels.py
 	$(MCPB) validate build/bundle/manifest.json
 	$(MCPB) pack build/bundle build/robocog-mcpb-check.mcpb
 

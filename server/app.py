@@ -52,6 +52,7 @@ from robocog.server.tools import CONTROL_TOOLS, ROBOT_TOOLS
 from robocog.shared import __version__
 from robocog.shared.errors import ConfigError
 from robocog.shared.protocol import CONTRACT_VERSION, DRIVER_META_KEY
+from robocog.shared.provenance import physics_build
 
 if TYPE_CHECKING:
     pass
@@ -64,7 +65,7 @@ INSTRUCTIONS = (
     "A simulated household robot (PyBullet): a mobile manipulator in a kitchen, hallway and living room. "
     "Drive it with look_around, move_to, grab and place; think on the scratchpad; search episodic memory "
     "for past experiences; finish every task with end_task. The robot_system prompt explains the method. "
-    f"robocog MCP contract {CONTRACT_VERSION}."
+    f"robocog MCP contract {CONTRACT_VERSION}. Physics: {physics_build()}."
 )
 
 

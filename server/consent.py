@@ -5,12 +5,14 @@ the user through MCP elicitation: "allow once", "allow for this session" or "den
 resolvers carry the question on either protocol (a server-to-client request up to 2025-11-25; an
 `InputRequiredResult` and a retry from 2026-07-28), so a tool only declares that it needs an answer.
 A client that cannot ask its user (no elicitation capability) gets a tool error that says to run the
-server without the flag.
+server without the flag, or, in a server the MCP Bundle started, to turn the extension's setting off
+(`no_elicitation`).
 """
 
 from __future__ import annotations
 
 import inspect
+import os
 from collections.abc import Hashable
 from typing import Annotated, Any, Literal
 
@@ -44,6 +46,23 @@ NO_ELICITATION = (
     "that supports elicitation."
 )
 
+#: Set by the MCP Bundle's entry point (packaging/bundle/server/main.py) to the title of the extension's
+#: setting that turns --confirm-actions on: its user never typed the flag, and is told of the setting.
+CONFIRM_SETTING_ENV = "ROBOCOG_CONFIRM_SETTING"
+
+
+def no_elicitation() -> str:
+    """What a client without elicitation is told: about the flag, or the bundle's setting when set."""
+    setting = os.environ.get(CONFIRM_SETTING_ENV, "").strip()
+    if not setting:
+        return NO_ELICITATION
+    return (
+        f"This robot runs as a desktop extension with its setting '{setting}' on: every action needs the "
+        "user's consent, asked through MCP elicitation, and this app does not support elicitation. Turn "
+        f"'{setting}' off in the extension's settings (the app's Settings, Extensions, robocog), or use an app "
+        "that supports elicitation."
+    )
+
 
 class ConsentGate:
     """Asks the user before `tool` runs, and remembers the drivers (`ownership.Driver`) that allowed
@@ -67,7 +86,7 @@ class ConsentGate:
                 return Decision(decision=ALLOW_SESSION)
             capabilities = ctx.client_capabilities
             if capabilities is None or capabilities.elicitation is None:
-                raise ToolError(NO_ELICITATION)
+                raise ToolError(no_elicitation())
             shown = ", ".join(f"{k}={v!r}" for k, v in arguments.items())
             return Elicit(f"The model asks the robot to {tool.name}({shown}). Allow it?", Decision)
 

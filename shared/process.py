@@ -1,4 +1,17 @@
-"""Child processes: a server robocog starts never outlives the process that started it."""
+"""Child processes: a server robocog starts never outlives the process that started it; and the other
+POSIX-only things a server does at start, each a no-op where it is missing.
+
+What robocog-server does only on some systems, and where it does without (tests/e2e/test_packaging.py
+starts it with each taken away): glibc's malloc arena limit (`limit_malloc_arenas`) and its parent-death
+signal (`die_with_parent`), Linux only; libc's `malloc_trim` after Chroma closes (server/memory/chroma.py),
+where found; uvloop's event loop (server/config.py), where installed; its stdio served from private
+duplicates of fds 0 and 1 (server/stdio.py), where fcntl is; the C runtime's stdio flushed after
+PyBullet prints (server/world/cstdio.py), the universal C runtime on Windows. It handles no signal but
+SIGTERM (which Windows has too) and forks no process. Left POSIX-only: a fleet over several processes
+(`--processes`), whose router starts its shared Chroma server with `preexec_fn=die_with_parent`, which
+Windows refuses (server/router_processes.py). A study's RAM scratch directory (/dev/shm) is the
+harness's, used where it exists (agent/harness/scratch.py).
+"""
 
 from __future__ import annotations
 
@@ -8,6 +21,7 @@ import errno
 import signal
 import socket
 import subprocess
+import sys
 import time
 
 #: prctl(2)'s PR_SET_PDEATHSIG.
@@ -18,7 +32,9 @@ def die_with_parent() -> None:
     """In a child process (`subprocess.Popen(preexec_fn=...)`): be sent SIGTERM when the parent
     dies, however it dies (Linux; elsewhere nothing), so no fleet process or Chroma server outlives
     the router or the harness that started it."""
-    with contextlib.suppress(OSError, AttributeError):
+    if not sys.platform.startswith("linux"):
+        return
+    with contextlib.suppress(OSError, AttributeError):  # not glibc (musl): nothing
         ctypes.CDLL("libc.so.6", use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
 
 
@@ -53,9 +69,9 @@ def limit_malloc_arenas(arenas: int = SERVER_ARENAS) -> None:
     first thing, before threads start."""
     import os
 
-    if os.environ.get("MALLOC_ARENA_MAX"):
+    if os.environ.get("MALLOC_ARENA_MAX") or not sys.platform.startswith("linux"):
         return
-    with contextlib.suppress(OSError, AttributeError):
+    with contextlib.suppress(OSError, AttributeError):  # not glibc (musl): nothing
         ctypes.CDLL("libc.so.6").mallopt(_M_ARENA_MAX, arenas)
 
 

@@ -2,7 +2,9 @@
 JSON) of the tools as the model saw them, of the system prompt and of the task or suite instance.
 
 A row's `provenance` (see `robocog.shared.evaluation.AttemptRow`) holds them with the model's sampling
-parameters; the row itself carries robocog's version, the protocol, the model string and the seed.
+parameters and the physics build the server ran (`physics_build`: upstream pybullet or its fork, and the
+version, which the server announces in its instructions); the row itself carries robocog's version, the
+protocol, the model string and the seed.
 The same digests of what robocog ships (`shipped_tools_sha256`, `shipped_prompt_sha256`,
 `shipped_task_sha256`) tell whether a row ran on unmodified prompts, tools and task files: the
 leaderboard's *verified* mark. Canonical JSON: keys sorted, no spaces, UTF-8 (`canonical_json`).
@@ -11,8 +13,12 @@ leaderboard's *verified* mark. Canonical JSON: keys sorted, no spaces, UTF-8 (`c
 from __future__ import annotations
 
 import hashlib
+import importlib.metadata
+import importlib.util
 import json
+import re
 from functools import cache
+from pathlib import Path
 from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field
@@ -67,6 +73,35 @@ def text_sha256(text: str) -> str:
     return sha256_of(text.strip())
 
 
+#: The distributions known to provide the `pybullet` module: upstream, and the fork with wheels for macOS and
+#: Windows (pyproject.toml selects one per environment).
+PHYSICS_DISTRIBUTIONS = ("pybullet", "pybullet-arm64")
+#: The physics build in a server's instructions: "Physics: pybullet 3.2.7." (`physics_build`).
+PHYSICS_PATTERN = re.compile(r"\bPhysics: (\S+ \S+?)\.(?:\s|$)")
+
+
+def physics_build() -> str | None:
+    """The distribution whose `pybullet` module this process imports, and its version ("pybullet 3.2.7",
+    "pybullet-arm64 3.2.8"); the module's file names it when more than one is installed. None without
+    the module; "pybullet unknown" when no known distribution holds it (a build from source). Imports
+    nothing of PyBullet."""
+    spec = importlib.util.find_spec("pybullet")
+    if spec is None or spec.origin is None:
+        return None
+    origin = Path(spec.origin).resolve()
+    for name in PHYSICS_DISTRIBUTIONS:
+        try:
+            dist = importlib.metadata.distribution(name)
+        except importlib.metadata.PackageNotFoundError:
+            continue
+        # its RECORD names the module's file, in the folder it is installed in (not every file's path resolved:
+        # pybullet's RECORD lists some 9,000)
+        installed_in = Path(str(dist.locate_file(""))).resolve()
+        if origin.parent == installed_in and f"\n{origin.name}," in f"\n{dist.read_text('RECORD') or ''}":
+            return f"{dist.metadata['Name']} {dist.version}"
+    return "pybullet unknown"
+
+
 class Provenance(BaseModel):
     """What a row ran on, beyond the fields every row has (version, protocol, model_id, seed)."""
 
@@ -81,6 +116,11 @@ class Provenance(BaseModel):
     suite: str | None = Field(default=None, description="the suite of the instance, when the task is one")
     params: dict[str, Any] = Field(default={}, description="the model's sampling parameters (the study's params)")
     vision: bool = Field(default=False, description="the model was shown pictures")
+    physics: str | None = Field(
+        default=None,
+        description="the physics build the server ran, as it announced it: its distribution and version "
+        "('pybullet 3.2.7', 'pybullet-arm64 3.2.8'); None: it did not announce one",
+    )
 
 
 # --- what robocog ships ------------------------------------------------------------------------------

@@ -1,8 +1,9 @@
 """Rows' provenance, checked: where the rows of one file disagree on what they ran on, and whether they
 ran on what robocog ships (the leaderboard's *verified* mark).
 
-What must agree: across the whole file, robocog's version, the contract's version, the protocol and
-the study's seed (a row's seed less its trial); per model, its model string, its sampling parameters,
+What must agree: across the whole file, robocog's version, the contract's version, the physics build
+(upstream pybullet or its fork, and the version), the protocol and the study's seed (a row's seed less
+its trial); per model, its model string, its sampling parameters,
 the tools it was offered and the system prompt; per task, the task's digest. Rows written before
 provenance existed carry none: a file with some is said to mix them.
 """
@@ -28,6 +29,7 @@ from robocog.shared.provenance import (
 FILE_WIDE: tuple[tuple[str, Callable[[AttemptRow], Any]], ...] = (
     ("robocog version", lambda r: r.version),
     ("contract version", lambda r: r.provenance.contract if r.provenance else None),
+    ("physics build", lambda r: r.provenance.physics if r.provenance else None),
     ("protocol", lambda r: r.protocol),
     ("study seed", lambda r: r.seed - r.trial),
 )

@@ -26,6 +26,7 @@ from robocog.agent.client.lean import McpClient
 from robocog.shared import __version__
 from robocog.shared.errors import ServerConnectionError
 from robocog.shared.protocol import CONTRACT_VERSION, CONTRACT_VERSION_PATTERN, FLEET_FULL
+from robocog.shared.provenance import PHYSICS_PATTERN
 from robocog.shared.web import CLIENT_KEEP_ALIVE_S
 
 
@@ -75,6 +76,7 @@ class Robot:
     requires: dict[str, list[str]] = field(default_factory=dict)  # task id -> tasks that must succeed first
     catalogue: dict[str, dict[str, Any]] = field(default_factory=dict)  # task id -> its robocog://tasks entry
     contract: str | None = None  # the MCP contract version the server announces in its instructions
+    physics: str | None = None  # the physics build it announces there ("pybullet 3.2.7")
     #: Whether the world the last reset_world made has furniture that opens (its answer lists some);
     #: None while no reset through the harness's controls has answered.
     furniture: bool | None = None
@@ -274,7 +276,7 @@ async def _lean_session(channel: Any, spec: ServerSpec) -> AsyncIterator[Robot]:
 
 async def _robot(client: Any, tools: list[Tool], spec: ServerSpec) -> Robot:
     """What the run needs from the server behind `client`: the system prompt, the task catalogue, the
-    contract version its instructions announce."""
+    contract version and the physics build its instructions announce."""
     prompt = await client.get_prompt("robot_system")
     system_prompt = "\n".join(getattr(m.content, "text", "") for m in prompt.messages)
     tasks: dict[str, str] = {}
@@ -289,6 +291,7 @@ async def _robot(client: Any, tools: list[Tool], spec: ServerSpec) -> Robot:
     except Exception:  # a server without the catalogue can still be driven
         tasks, requires, entries = {}, {}, {}
     announced = CONTRACT_VERSION_PATTERN.search(client.instructions or "")
+    physics = PHYSICS_PATTERN.search(client.instructions or "")
     return Robot(
         client=client,
         tools=tools,
@@ -298,4 +301,5 @@ async def _robot(client: Any, tools: list[Tool], spec: ServerSpec) -> Robot:
         requires=requires,
         catalogue=entries,
         contract=announced.group(1) if announced else None,
+        physics=physics.group(1) if physics else None,
     )

@@ -351,7 +351,7 @@ class Runner:
     ) -> Provenance:
         """What the attempt runs on: the tools as the model is offered them (open and close with
         `furniture`: as `run_episode` decides), the system prompt, the task (its catalogue entry, or the
-        suite instance) and the model's sampling parameters."""
+        suite instance), the model's sampling parameters and the server's physics build."""
         vision = spec.vision and self.protocol.offers_camera
         definitions = function_definitions(robot.tools, vision=vision, furniture=furniture)
         task = self.suite.spec(task_id) or robot.catalogue.get(task_id)
@@ -365,6 +365,7 @@ class Runner:
             suite=self.suite.suite if task_id in self.suite.instances else None,
             params=dict(spec.params),
             vision=vision,
+            physics=robot.physics,
         )
 
     # --- workers ---------------------------------------------------------------------------------

@@ -14,9 +14,13 @@ from collections.abc import Iterator
 
 
 def flush_c_stdio() -> None:
-    """Flush libc's stdio buffers, so text C code printed goes out now, where fd 1 points now."""
-    with contextlib.suppress(OSError, AttributeError):
-        ctypes.CDLL(None).fflush(None)
+    """Flush the C runtime's stdio buffers, so text C code printed goes out now, where fd 1 points now:
+    the process's own C library on POSIX, the universal C runtime (ucrtbase, which Python and the
+    extension modules built for it share) on Windows, where `CDLL(None)` is a TypeError; nothing
+    where neither is found."""
+    with contextlib.suppress(OSError, AttributeError, TypeError):
+        runtime = ctypes.CDLL("ucrtbase") if sys.platform == "win32" else ctypes.CDLL(None)
+        runtime.fflush(None)
 
 
 @contextlib.contextmanager

@@ -1,6 +1,7 @@
 """The static results bundle (`robocog view RESULTS --bundle DIR`) opened from file:// in Chromium:
 the attempts, a trace step by step with its picture, the report with its figures; and a real study's
-rows, whose provenance is that of what robocog ships, bundled whole.
+rows, whose provenance is that of what robocog ships (the physics build the server announced among
+it, and a report that marks rows of another), bundled whole.
 """
 
 from __future__ import annotations
@@ -13,8 +14,10 @@ from pathlib import Path
 import pytest
 
 from robocog.agent.analysis.provenance import row_problems, trace_on_disk, verify
+from robocog.agent.analysis.report import render
 from robocog.agent.analysis.results_file import read_rows
 from robocog.agent.cli.main import main
+from robocog.shared.provenance import physics_build
 from tests.browser import browser_page, chromium, screenshot_path
 from tests.e2e.test_viewer import study_with_a_trace
 from tests.helpers import ROOT
@@ -43,9 +46,21 @@ def test_eval_rows_carry_the_provenance_of_what_robocog_ships(study: Path) -> No
         assert r.provenance is not None
         assert row_problems(r) == [], (r.model, r.task)
         assert r.provenance.system_prompt == "robot_system" and "look" not in r.provenance.tools
+        assert r.provenance.physics == physics_build() is not None  # as the server announced it
     overconfident = {json.dumps(r.provenance.params) for r in rows if r.model == "overconfident-0.3" and r.provenance}
     assert overconfident == {'{"p": 0.3}'}
     assert verify(rows, trace_on_disk(study.parent)).verified
+
+
+def test_the_report_marks_rows_of_another_physics_build(study: Path, tmp_path: Path) -> None:
+    rows = read_rows(study)
+    assert rows[0].provenance is not None
+    fork = rows[0].provenance.model_copy(update={"physics": "pybullet-arm64 3.2.8"})
+    mixed = [rows[0].model_copy(update={"provenance": fork}), *rows[1:]]
+    report = render(mixed, tmp_path / "report").read_text(encoding="utf-8")
+    said = f"- rows disagree on the physics build: {physics_build()} (9 rows), pybullet-arm64 3.2.8 (1 rows)"
+    assert said in report.split("## Provenance: the rows disagree", 1)[1]
+    assert "## Provenance" not in render(rows, tmp_path / "same").read_text(encoding="utf-8")
 
 
 def _open(path: Path) -> str:

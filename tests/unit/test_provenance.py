@@ -4,7 +4,10 @@ where the rows of one file disagree, and what keeps rows from the leaderboard's 
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
+
+import pytest
 
 from robocog.agent.analysis.provenance import disagreements, row_problems, trace_on_disk, verify
 from robocog.agent.analysis.results_file import read_rows
@@ -12,8 +15,10 @@ from robocog.assets import ASSETS_DIR
 from robocog.shared.evaluation import AttemptRow
 from robocog.shared.protocol import CONTRACT_VERSION, PAPER_TOOLS
 from robocog.shared.provenance import (
+    PHYSICS_PATTERN,
     Provenance,
     canonical_json,
+    physics_build,
     sha256_of,
     shipped_prompt_sha256,
     shipped_task_sha256,
@@ -91,6 +96,52 @@ def test_disagreements_name_what_differs_and_how_many_rows_hold_each_value() -> 
         f"rows of T1 disagree on the task's digest: {shipped_task_sha256('T1')[:12]} "  # type: ignore[index]
         f"({sum(r.task == 'T1' for r in changed_task) - 1} rows), 000000000000 (1 rows)"
     ]
+
+
+def test_rows_of_different_physics_builds_are_marked() -> None:
+    """Rows that ran on upstream pybullet and on its fork are told apart; rows before the field say nothing."""
+    mixed = rows(provenance=None)
+    mixed = [r.model_copy(update={"provenance": shipped(r.task, physics="pybullet 3.2.7")}) for r in mixed]
+    assert disagreements(mixed) == []
+    fork = shipped(mixed[0].task, physics="pybullet-arm64 3.2.8")
+    mixed[0] = mixed[0].model_copy(update={"provenance": fork})
+    assert disagreements(mixed) == [
+        f"rows disagree on the physics build: pybullet 3.2.7 ({len(mixed) - 1} rows), pybullet-arm64 3.2.8 (1 rows)"
+    ]
+    assert "physics" not in shipped().model_dump(exclude_defaults=True)  # older rows load, with None
+
+
+def _fake_physics(site: Path, dist_info: str | None) -> None:
+    """A `pybullet` module in `site`, installed by the distribution `dist_info` ("name-version"), or by none."""
+    site.mkdir()
+    (site / "pybullet.py").write_text("")
+    if dist_info is not None:
+        meta = site / f"{dist_info}.dist-info"
+        meta.mkdir()
+        name, version = dist_info.split("-", 1)
+        (meta / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {name.replace('_', '-')}\nVersion: {version}\n")
+        (meta / "RECORD").write_text(f"pybullet.py,,\n{meta.name}/METADATA,,\n{meta.name}/RECORD,,\n")
+
+
+@pytest.mark.parametrize(
+    ("dist_info", "build"),
+    [
+        ("pybullet_arm64-3.2.8", "pybullet-arm64 3.2.8"),
+        ("pybullet-9.9.9", "pybullet 9.9.9"),
+        (None, "pybullet unknown"),
+    ],
+)
+def test_physics_build_names_the_distribution_of_the_module_imported(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, dist_info: str | None, build: str
+) -> None:
+    """The module first on the path decides, even with the other build installed (this virtualenv's)."""
+    assert physics_build() is not None  # this virtualenv's own
+    _fake_physics(tmp_path / "site", dist_info)
+    monkeypatch.syspath_prepend(str(tmp_path / "site"))
+    monkeypatch.delitem(sys.modules, "pybullet", raising=False)
+    assert physics_build() == build
+    found = PHYSICS_PATTERN.search(f"robocog MCP contract 4.0. Physics: {build}.")
+    assert found is not None and found.group(1) == build
 
 
 def test_verified_only_with_shipped_prompt_tools_and_task_and_every_trace(tmp_path: Path) -> None:
