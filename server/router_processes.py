@@ -157,7 +157,7 @@ class Fleet:
             env=env,
             stdout=subprocess.DEVNULL,
             stderr=subprocess.DEVNULL,
-            preexec_fn=die_with_parent,
+            preexec_fn=die_with_parent if os.name == "posix" else None,  # Windows takes no preexec_fn
         )
         wait_started(port, self.chroma, "the shared memory (chroma run)")
         return f"http://127.0.0.1:{port}"

@@ -7,10 +7,9 @@ signal (`die_with_parent`), Linux only; libc's `malloc_trim` after Chroma closes
 where found; uvloop's event loop (server/config.py), where installed; its stdio served from private
 duplicates of fds 0 and 1 (server/stdio.py), where fcntl is; the C runtime's stdio flushed after
 PyBullet prints (server/world/cstdio.py), the universal C runtime on Windows. It handles no signal but
-SIGTERM (which Windows has too) and forks no process. Left POSIX-only: a fleet over several processes
-(`--processes`), whose router starts its shared Chroma server with `preexec_fn=die_with_parent`, which
-Windows refuses (server/router_processes.py). A study's RAM scratch directory (/dev/shm) is the
-harness's, used where it exists (agent/harness/scratch.py).
+SIGTERM (which Windows has too) and forks no process; a fleet's router (`--processes`) gives its shared
+Chroma server `preexec_fn=die_with_parent` on POSIX only (Windows refuses a preexec_fn). A study's RAM
+scratch directory (/dev/shm) is the harness's, used where it exists (agent/harness/scratch.py).
 """
 
 from __future__ import annotations
