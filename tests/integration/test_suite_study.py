@@ -27,9 +27,10 @@ def test_a_study_config_takes_a_suite_and_selects_its_instances() -> None:
     assert config.tasks == [i.id for i in select(SPLITS["test"], families=["swap", "memory"], limit=9)]
     assert {t.split("-")[1] for t in config.tasks} == {"swap", "memory"}
     assert EvalConfig.model_validate(config.model_dump()).tasks == config.tasks  # a config read back
+    default = EvalConfig(models=models, instances=3)  # no suite named: robocog-v2.1's
+    assert default.suite == "robocog-v2.1" and default.tasks == [i.id for i in select(SPLITS["dev"], limit=3)]
     for bad, message in (
         ({"suite": SUITE.name, "tasks": ["T1"]}, "either tasks or a suite's instances"),
-        ({"instances": 3}, "give the suite"),
         ({"suite": SUITE.name, "families": ["juggling"]}, "no such family ['juggling']"),
         ({"suite": SUITE.name, "split": "holdout"}, "no such split"),
     ):
