@@ -8,7 +8,6 @@ order of calls changed, nothing else.
 
 from __future__ import annotations
 
-from dataclasses import replace
 from typing import Literal
 
 from robocog.agent.policies.belief import History, PastCall
@@ -32,23 +31,14 @@ class Verbose(Planner):
         return call
 
 
-#: What the lean order leaves out, as if done (the planner's preliminaries it skips).
-_SKIPPED = (
-    PastCall("search_memory", {}, {"status": "success", "results": []}, False),
-    PastCall("add_to_scratchpad", {}, {"status": "success"}, False),
-)
-
-
 class Lean(Planner):
     """The planner in a lean order: look, move, grab, move, place, end. It neither searches its memory
     nor writes a plan (but for a task that needs what memory holds), never looks again unless a call
     failed (an announcement of a change it reads, but does not look for), and ends without a last look.
     Under partial observation it looks at each place it has not seen, as a search must."""
 
-    def __call__(self, history: History) -> Call:
-        if any(c.name == "search_memory" for c in history.calls) or "back" in history.task.lower().split():
-            return super().__call__(history)  # a task that needs memory: its preliminaries as the planner's
-        return super().__call__(replace(history, calls=[*_SKIPPED, *history.calls]))
+    def prepares(self, task: str) -> bool:
+        return "back" in task.lower().split()  # only a task that needs what memory holds
 
     def looks_again(self, calls: list[PastCall]) -> bool:
         return bool(calls) and calls[-1].is_error

@@ -198,7 +198,7 @@ class Planner:
         """Search memory, look around, understand the task and note the plan; then the episode."""
         task, calls = history.task.strip(), history.calls
         names = {c.name for c in calls}
-        if "search_memory" not in names:
+        if "search_memory" not in names and self.prepares(task):
             return Call("search_memory", {"query": task})
         if "look_around" not in names:
             return Call("look_around")
@@ -218,7 +218,7 @@ class Planner:
             known = sorted(avoid & set(first.objects()))
             note = f" {UNGRASPABLE_NOTE} {', '.join(known)}." if known else ""
             return _end(task, "failure", f"Task: {task} I cannot do it: {request.problem}. Nothing was moved.{note}")
-        if "add_to_scratchpad" not in names:
+        if "add_to_scratchpad" not in names and self.prepares(task):
             return Call("add_to_scratchpad", {"text": _plan_note(task, request, first, avoid)})
         ungraspable = _grabbed(calls, "error", "not_graspable")
         given_up = {o: "it cannot be grasped" for o in ungraspable}
@@ -239,6 +239,10 @@ class Planner:
         if (belief.stale or recovery.look_again(calls)) and self.looks_again(calls):  # the world changed under it
             return Call("look_around")
         return episode
+
+    def prepares(self, task: str) -> bool:
+        """Whether it searches its memory and notes its plan before acting (the planner: always)."""
+        return True
 
     def looks_again(self, calls: list[PastCall]) -> bool:
         """Whether it looks again when its belief may be out of date (the planner: always)."""
