@@ -27,7 +27,7 @@ from robocog.server.world.world import World
 from robocog.shared.perturbations import Perturbation, PerturbationEvent
 from robocog.shared.results import ObjectPlacement, WorldState
 from robocog.shared.scene_files import scene_path
-from robocog.shared.suite import Instance, find_instance
+from robocog.shared.suite import Instance, describes_objects, find_instance
 from robocog.shared.tasks import TaskSpec
 
 R = TypeVar("R", bound=BaseModel)
@@ -96,6 +96,8 @@ class RobotSession:
         self._home_scene = self.world.scene.name
         #: The suite instance the world was last set up for (`begin_instance`), if any.
         self.instance: Instance | None = None
+        #: look_around names the colour and size of what it shows (an instance of robocog-v2.1 on).
+        self.describing = False
         self._memory = memory
         #: Where memories come from when they are shared (a fleet), and which namespace this robot uses.
         self._memories = memories
@@ -275,6 +277,7 @@ class RobotSession:
         and a new episode (episodic memory is kept: that is the point of it), with `perturbations`
         (default: the scene's own; a ValueError names one the scene cannot have)."""
         self.instance = None
+        self.describing = False
         self.world = self._worlds[self._home_scene]
         problems = self.world.scene.perturbation_problems(perturbations or [])
         if problems:
@@ -321,6 +324,7 @@ class RobotSession:
         for task in (instance.task(), *instance.prelude_tasks()):
             self.tasks[task.id] = task
         self.instance = instance
+        self.describing = describes_objects(suite)
         self.start_episode()
         return self.world.state()
 

@@ -85,7 +85,9 @@ class EvalConfig(BaseModel):
     out: str | None = Field(default=None, description="results file (JSONL), relative to the config file")
     server_args: list[str] = Field(default=[], description="extra robocog-server arguments, e.g. --scene")
     suite: str | None = Field(
-        default=None, description="a suite (e.g. robocog-v1): the instances of its split are the tasks, in file order"
+        default=None,
+        description="a suite (e.g. robocog-v2.1, the default where `instances` or `families` name no suite): "
+        "the instances of its split are the tasks, in file order",
     )
     split: str = Field(default="dev", description="the suite's split (dev or test)")
     instances: int | None = Field(
@@ -111,12 +113,13 @@ class EvalConfig(BaseModel):
     @model_validator(mode="after")
     def _suite_tasks(self) -> EvalConfig:
         """With a suite, the tasks are its selected instances' ids (`robocog.shared.suite.select`)."""
+        from robocog.shared.suite import DEFAULT_SUITE, load_split, select
+
         if self.suite is None:
-            if self.instances is not None or self.families is not None:
-                raise ValueError("suite: instances and families choose a suite's instances: give the suite")
-            return self
+            if self.instances is None and self.families is None:
+                return self
+            self.suite = DEFAULT_SUITE  # instances and families of no suite named: the default suite's
         from robocog.shared.family_files import load_families
-        from robocog.shared.suite import load_split, select
 
         known = load_families()
         unknown = sorted(set(self.families or []) - set(known))

@@ -155,6 +155,9 @@ class Variant(_Strict):
     observe: Observe | None = Field(
         default=None, description="what look_around reveals in this variant's instances (default: the study's)"
     )
+    weight: int = Field(
+        default=1, ge=1, le=100, description="how often the generator tries this variant against the others"
+    )
 
     @model_validator(mode="after")
     def _templates(self, info: ValidationInfo) -> Variant:

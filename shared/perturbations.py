@@ -13,7 +13,17 @@ A `Perturbation` is one event the world makes happen during an episode, in physi
 - `block_edge`: the corridor between the two locations of `edge` is blocked for `duration` tool
   calls; `move_to` through it stops at the last location before the block and says why.
 
-All but `slip` are due at the `at_call`-th robot tool call since the reset (the episode's own count
+What robocog-v2.1 uses is triggered by the world's state, not by a count of calls (`when`):
+
+- `when: approach` (move_object): someone moves the object as the robot sets off on the first drive
+  that would take it to the object (its route ends in the object's room, or passes where it lies),
+  while the robot neither holds it nor stands by it: whatever order an agent calls its tools in, the
+  object is gone before it can be grasped;
+- `when: route` (block_edge): the corridor is blocked as the robot sets off on the first drive whose
+  route needs it (then for `duration` tool calls): the drive stops before it.
+
+Without `when` (robocog-v1 and robocog-v2), all but `slip` are due at the `at_call`-th robot tool call
+since the reset (the episode's own count
 for the episode a reset begins; a later episode in the same world, T2 after T1, goes on counting),
 and wait for the robot to be elsewhere when they need it to be; `duration` counts the same calls.
 `announce`: the result of the call during which it happened gets a sentence "Something changed:
@@ -37,6 +47,10 @@ PERTURBATION_META_KEY = "robocog/perturbations"
 MAX_PERTURBATIONS = 16
 
 PerturbationKind = Literal["slip", "move_object", "close_container", "block_edge"]
+#: What sets a perturbation off in the world (None: the `at_call`-th call).
+Trigger = Literal["approach", "route"]
+#: The kind each trigger applies to.
+TRIGGER_KINDS: dict[str, str] = {"approach": "move_object", "route": "block_edge"}
 
 #: A name inside a pair (a location, a position).
 Name = Annotated[str, Field(min_length=1, max_length=NAME_CHARS)]
@@ -50,6 +64,11 @@ class Perturbation(BaseModel):
     kind: PerturbationKind = Field(description="slip | move_object | close_container | block_edge")
     at_call: int = Field(
         default=1, ge=1, le=1000, description="due at this robot tool call since the reset (not for slip)"
+    )
+    when: Trigger | None = Field(
+        default=None,
+        description="approach (move_object): as the robot sets off towards the object; route (block_edge): as "
+        "the robot sets off on a drive that needs the corridor; absent: at `at_call`",
     )
     on_drive: int = Field(default=1, ge=1, le=100, description="slip: during this drive with an object in hand")
     object: str | None = Field(default=None, min_length=1, max_length=NAME_CHARS, description="move_object: which")
@@ -68,6 +87,8 @@ class Perturbation(BaseModel):
         needed = {"move_object": "object", "close_container": "container", "block_edge": "edge"}.get(self.kind)
         if needed is not None and getattr(self, needed) is None:
             raise ValueError(f"a {self.kind} perturbation needs `{needed}`")
+        if self.when is not None and TRIGGER_KINDS[self.when] != self.kind:
+            raise ValueError(f"when: {self.when!r} sets off a {TRIGGER_KINDS[self.when]}, not a {self.kind}")
         return self
 
 

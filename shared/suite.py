@@ -14,21 +14,21 @@ import json
 import re
 from functools import cache
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from robocog.assets import ASSETS_DIR
 from robocog.shared.config_files import load_yaml_model, validation_problems
 from robocog.shared.errors import ConfigError
-from robocog.shared.family_files import LONG_HORIZON_STEPS, Capability, Id, load_families
+from robocog.shared.family_files import FAMILIES_DIR, LONG_HORIZON_STEPS, Capability, Id, load_families
 from robocog.shared.perturbations import MAX_PERTURBATIONS, Perturbation
 from robocog.shared.results import Observe
 from robocog.shared.scene_files import generated_scene_names, scene_names
 from robocog.shared.tasks import Condition, TaskSpec
 
 SUITES_DIR = ASSETS_DIR / "suites"
-DEFAULT_SUITE = "robocog-v1"
+DEFAULT_SUITE = "robocog-v2.1"
 
 
 class _Strict(BaseModel):
@@ -134,10 +134,15 @@ class SplitSpec(_Strict):
     per_family: int = Field(ge=1, description="instances of each family")
 
 
+#: A suite's name: an id that may carry a version's dots ("robocog-v2.1"), never a path.
+SuiteName = Annotated[str, Field(pattern=r"^[A-Za-z0-9_\-]+(?:\.[A-Za-z0-9_\-]+)*$", min_length=1, max_length=120)]
+SUITE_NAME = re.compile(r"[A-Za-z0-9_\-]+(?:\.[A-Za-z0-9_\-]+)*")
+
+
 class Suite(_Strict):
     """A suite's manifest (`assets/suites/NAME/suite.yaml`): which families over which scenes, and the splits."""
 
-    name: Id
+    name: SuiteName
     description: str = ""
     families: list[Id] = Field(min_length=1)
     scenes: list[str] = Field(
@@ -147,6 +152,19 @@ class Suite(_Strict):
     )
     splits: dict[Id, SplitSpec] = Field(min_length=1)
     tagged: bool = Field(default=False, description="instances carry capability tags (robocog-v1 predates them: false)")
+    # What robocog-v2.1 changed (robocog-v1 and robocog-v2 predate these: their defaults keep them as they were).
+    family_dir: str | None = Field(
+        default=None,
+        description="the suite's own family files, a directory beside suite.yaml (default: assets/families)",
+    )
+    describes_objects: bool = Field(
+        default=False, description="look_around names the colour and size of every object in view"
+    )
+    fair_goals: bool = Field(
+        default=False,
+        description="a room's name in a prompt says 'the floor of' where the room has furniture, and no item "
+        "starts where it is sent",
+    )
 
     @model_validator(mode="after")
     def _unique(self) -> Suite:
@@ -177,11 +195,18 @@ def suite_dir(name: str) -> Path:
     return path if path.is_dir() and (path / "suite.yaml").exists() else SUITES_DIR / name
 
 
+def families_dir(name: str, suite: Suite) -> Path:
+    """Where the family files of the suite `name` (a name under assets/suites, or a directory) are."""
+    return FAMILIES_DIR if suite.family_dir is None else suite_dir(name) / suite.family_dir
+
+
 def load_suite(name: str = DEFAULT_SUITE) -> Suite:
     """The manifest of the suite `name`; its families must exist."""
     path = suite_dir(name) / "suite.yaml"
     suite = load_yaml_model(path, Suite)
-    families = load_families()
+    if suite.family_dir is not None and not re.fullmatch(r"[A-Za-z0-9_\-]+", suite.family_dir):
+        raise ConfigError(f"{path}: family_dir: a directory name beside suite.yaml, got {suite.family_dir!r}")
+    families = load_families(families_dir(name, suite))
     missing = [f for f in suite.families if f not in families]
     if missing:
         raise ConfigError(f"{path}: families: no such family {missing} (known: {sorted(families)})")
@@ -243,12 +268,21 @@ def load_split(suite: str = DEFAULT_SUITE, split: str = "dev") -> list[Instance]
     return list(_split(suite_dir(suite), split))
 
 
+@cache
+def describes_objects(suite: str) -> bool:
+    """Whether look_around names the colour and size of what it shows during an instance of the shipped
+    suite `suite` (robocog-v2.1 on)."""
+    if not SUITE_NAME.fullmatch(suite):
+        return False
+    return load_yaml_model(SUITES_DIR / suite / "suite.yaml", Suite).describes_objects
+
+
 def find_instance(suite: str, instance_id: str) -> Instance:
     """The instance `instance_id` of any split of the shipped suite `suite` (a name under
     assets/suites, never a path: the server looks instances up for its clients); a ValueError names
     what is known."""
     directory = SUITES_DIR / suite
-    if not re.fullmatch(r"[A-Za-z0-9_\-]+", suite) or not (directory / "suite.yaml").exists():
+    if not SUITE_NAME.fullmatch(suite) or not (directory / "suite.yaml").exists():
         known = sorted(p.name for p in SUITES_DIR.iterdir() if (p / "suite.yaml").exists())
         raise ValueError(f"unknown suite {suite!r}; known suites: {', '.join(known)}")
     splits = sorted(p.stem for p in directory.glob("*.jsonl"))

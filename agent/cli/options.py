@@ -173,6 +173,7 @@ def server_spec(args: argparse.Namespace) -> ServerSpec:
         ("--scene", args.scene),
         ("--search-k", PROTOCOLS[args.protocol].search_k if args.protocol != "robocog" else None),
         ("--view", getattr(args, "view", None)),
+        ("--observe", getattr(args, "observe", None)),
     ):
         if value is not None:
             extra += [flag, str(value)]

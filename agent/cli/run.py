@@ -54,6 +54,13 @@ def add_session_parser(sub: Any, name: str, help: str) -> argparse.ArgumentParse
     add_model(p)
     add_connection(p)
     add_view(p)
+    p.add_argument(
+        "--observe",
+        choices=("location", "room", "house"),
+        default=None,
+        help="what look_around shows: the robot's location, its room, or the whole house (the server's "
+        "default: house); with --url the world is reset to set it (an eval-profile server)",
+    )
     return p
 
 
@@ -128,6 +135,12 @@ async def run_tasks(args: argparse.Namespace, tasks: Sequence[str] | None, loade
         except ModelServiceError as exc:
             print(f"robocog: {exc}", file=sys.stderr)
             return 2
+        observe = getattr(args, "observe", None)
+        if observe is not None and args.url:  # a running server: its reset_world sets it
+            if not robot.can_check:
+                print("robocog: --observe with --url needs a server with --profile eval", file=sys.stderr)
+                return 2
+            await controls.reset_world(observe=observe)
         if not robot.can_check:
             print(
                 f"robocog: the server at {robot.label} has no ground truth for the client (it runs without "

@@ -1,22 +1,25 @@
 """How the scripted planner reads a task: what a reading gives (`Request`: where each object should
-end up) and the grounding every family's prompt reader shares — an object named by its name, by a
-description the scenes give it ("the drinking vessel") or by where it is ("the item on Kitchen Shelf
-top"), and a place named by its location and position — resolved against what the planner's first
-look around showed (`FirstLook`, which the planner's `Belief` is; the families sit below the
-policies, so they name what they read, not the planner's class).
+end up) and the grounding every family's prompt reader shares — an object named by its name, by what
+look_around said it looks like ("the black thing", "the small red thing": every word of the
+description must fit it, and no other object), or by where it is ("the item on Kitchen Shelf top"),
+and a place named by its location and position — resolved against what the planner's first look
+around showed (`FirstLook`, which the planner's `Belief` is; the families sit below the policies, so
+they name what they read, not the planner's class).
+
+The planner learns a house only from what the tools say: nothing here (nor anywhere under
+agent/policies, agent/families or agent/symbolic) reads a scene file (an import contract and a test
+hold it). A description a house's file gives an object ("the drinking vessel") is not something the
+tools say, so the planner does not resolve it: robocog-v2.1's referring instances name what a person
+sees.
 """
 
 from __future__ import annotations
 
-import functools
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Protocol
 
-import yaml
-
-from robocog.assets import ASSETS_DIR
 from robocog.shared.names import name_key
 
 
@@ -47,6 +50,16 @@ class FirstLook(Protocol):
     @property
     def containers(self) -> Mapping[str, str]:
         """Furniture that opens, by name (as look_around lists it) -> the location it is opened from."""
+        ...
+
+    @property
+    def looks(self) -> Mapping[str, tuple[str, ...]]:
+        """Object -> what look_around said it looks like (its colour and size), where it said so."""
+        ...
+
+    @property
+    def partial(self) -> bool:
+        """Whether the first look showed only part of the house (partial observation)."""
         ...
 
     def objects(self) -> list[str]:
@@ -87,88 +100,55 @@ def clean(text: str) -> str:
     return name_key(text)
 
 
-_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+#: Words of a description that name no attribute ("the black thing": only "black" must fit).
+_FILLER = frozenset({"the", "a", "an", "thing", "things", "one", "item", "object", "something", "that", "is"})
 
 
-@functools.cache
-def scene_descriptions() -> dict[str, tuple[str, ...]]:
-    """Object name -> the descriptions the hand-made scenes in assets/scenes give it (world knowledge
-    the planner, as the suite's oracle, may use to resolve "the drinking vessel")."""
-    found: dict[str, list[str]] = {}
-    for _, objects in _scene_catalogues(generated=False):
-        for name, said in objects.items():
-            found.setdefault(name, []).extend(said)
-    return {name: tuple(dict.fromkeys(said)) for name, said in found.items()}
+def words_of(obj: str, first: FirstLook) -> set[str]:
+    """The words an object may be called by from what the tools said of it: its name's words and what
+    look_around said it looks like (its colour and size, robocog-v2.1)."""
+    return {*obj.lower().replace("_", " ").split(), *first.looks.get(obj, ())}
 
 
-@functools.cache
-def _scene_catalogues(*, generated: bool) -> tuple[tuple[frozenset[str], dict[str, tuple[str, ...]]], ...]:
-    """Per scene file (the hand-made ones, or the generated houses): its location names, and each
-    object's descriptions (cleaned)."""
-    folder = ASSETS_DIR / "scenes" / ("generated" if generated else "")
-    out = []
-    for path in sorted(folder.glob("*.yaml")):
-        try:
-            data = yaml.load(path.read_text(encoding="utf-8"), Loader=_LOADER)
-        except (OSError, UnicodeDecodeError, yaml.YAMLError):
-            continue
-        if not isinstance(data, dict):
-            continue
-        objects: list[Any] = data["objects"] if isinstance(data.get("objects"), list) else []
-        locations: list[Any] = data["locations"] if isinstance(data.get("locations"), list) else []
-        said = {
-            o["name"]: tuple(dict.fromkeys(clean(str(d)) for d in o.get("descriptions") or []))
-            for o in objects
-            if isinstance(o, dict) and isinstance(o.get("name"), str)
-        }
-        names = frozenset(
-            loc["name"] for loc in locations if isinstance(loc, dict) and isinstance(loc.get("name"), str)
-        )
-        out.append((names, said))
-    return tuple(out)
-
-
-def descriptions_in(first: FirstLook) -> dict[str, tuple[str, ...]]:
-    """The descriptions of the house the first look shows: a generated house's own (its colours are
-    its own: "the red thing" is another object in another house), found by its location and object
-    names; the hand-made scenes' otherwise."""
-    seen, things = set(first.neighbours), set(first.objects())
-    houses = [
-        said for names, said in _scene_catalogues(generated=True) if seen and seen <= names and things <= set(said)
-    ]
-    if len(houses) == 1:
-        return houses[0]
-    if houses:  # houses alike in every name seen: what all of them call each object
-        return {o: tuple(d for d in houses[0][o] if all(d in h.get(o, ()) for h in houses)) for o in houses[0]}
-    return scene_descriptions()
-
-
-def _called(obj: str, descriptions: Mapping[str, tuple[str, ...]]) -> set[str]:
-    """What an object may be called: its name (with spaces for underscores) and its descriptions."""
-    name = obj.lower()
-    return {name, name.replace("_", " "), *descriptions.get(obj, ())}
-
-
-def _match_location(text: str, locations: list[str]) -> str | None:
-    """The location named in `text`: a full name, else the one whose last word is mentioned."""
+def _match_location(text: str, locations: list[str], *, loosely: bool = True) -> str | None:
+    """The location named in `text`: a full name, else (`loosely`) the one whose last word is mentioned."""
     low = text.lower()
     for name in sorted(locations, key=len, reverse=True):
         if re.search(rf"\b{re.escape(name.lower())}\b", low):
             return name
+    if not loosely:
+        return None
     words = set(re.findall(r"[a-z]+", low))
     hits = [n for n in locations if n.lower().split()[-1] in words]
     return hits[0] if len(hits) == 1 else (sorted(hits, key=len)[0] if hits else None)
 
 
+_FLOOR_OF = re.compile(r"^(?:the )?floor of (?:the )?")
+
+
+def place_words(text: str) -> str:
+    """A place as a prompt names it, cleaned, without "the floor of" (a room's floor is the room's
+    location: "the floor of the Hall" -> "hall")."""
+    return _FLOOR_OF.sub("", clean(text))
+
+
 def place_named(text: str, first: FirstLook) -> Goal | None:
-    """The location a phrase names, with the place position it names (if any)."""
-    location = _match_location(text, list(first.neighbours))
+    """The location a phrase names, with the place position it names (if any). Under partial
+    observation a place out of sight is the location the phrase names ("the floor of the Hall": Hall),
+    found as the robot explores."""
+    known = [*first.neighbours, *(n for ns in first.neighbours.values() for n in ns)]
+    location = _match_location(text, list(dict.fromkeys(known)), loosely=not first.partial)
     if location is None:
-        return None
+        if not first.partial or not clean(text):
+            return None
+        return Goal(place_words(text))
     rest = text.lower().replace(location.lower(), " ")
     position = next(
         (p for p in first.positions.get(location, []) if re.search(rf"\b{re.escape(p.lower())}\b", rest)), None
     )
+    left = set(re.findall(r"[a-z]+", rest)) - {"the", "a", "an", "floor", "of"} - set((position or "").split())
+    if first.partial and left:  # "Dining Room Counter" is no "Dining Room": a place not seen yet
+        return Goal(place_words(text))
     return Goal(location, position)
 
 
@@ -194,12 +174,17 @@ def resolve_object(phrase: str, first: FirstLook) -> tuple[str | None, str | Non
     if relation:
         return _by_relation(relation.group(1), first)
     singular = text[:-1] if text.endswith("s") and not text.endswith("ss") else text
-    descriptions = descriptions_in(first)
-    hits = [o for o in first.objects() if {text, singular} & _called(o, descriptions)]
+    named = [o for o in first.objects() if name_key(o) in (text, singular) or name_key(o.replace("_", " ")) == text]
+    if named:
+        return named[0], None
+    wanted = set(text.split()) - _FILLER
+    hits = [o for o in first.objects() if wanted and wanted <= words_of(o, first)] if wanted else []
     if len(hits) == 1:
         return hits[0], None
     if hits:
         return None, f"'{text}' could be the {' or the '.join(sorted(hits))}"
+    if first.partial and not _RELATION.match(text):  # out of sight yet: the name the prompt gives, to find
+        return text, None
     return None, f"there is no {text} here"
 
 

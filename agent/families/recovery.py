@@ -168,3 +168,84 @@ def blocked_for_good(rng: random.Random, world: SceneNames, where: Where, v: Var
     a, b = rng.choice(bridges)
     block = {"kind": "block_edge", "edge": [a, b], "at_call": 1, "duration": FOREVER, "announce": _announce(rng)}
     return {"item": item, "location": location, "perturbations": [block]}
+
+
+# --- robocog-v2.1: set off by the world's state, not by a count of calls -------------------------------
+#
+# Whatever order an agent calls its tools in, each of these happens before its goal can be reached and
+# changes what it must do: the item is moved as the robot sets off towards it (`when: approach`); a
+# corridor every route needs is blocked as the robot sets off on a drive that needs it (`when: route`),
+# for a few calls or for good. No perturbation puts anything on a position something occupies.
+
+
+def bridges(scene: Scene, start: str, goal: str) -> list[tuple[str, str]]:
+    """The corridors of the route from `start` to `goal` that every route between them needs."""
+    path = route(scene, start, goal)
+    if path is None:
+        return []
+    return [(a, b) for a, b in itertools.pairwise(path) if route(scene, start, goal, frozenset((a, b))) is None]
+
+
+@draw("moved_on_approach", gives=_EXAMPLE)
+def moved_on_approach(rng: random.Random, world: SceneNames, where: Where, v: Variant) -> dict[str, Any] | None:
+    """An item to bring, which someone moves to a free floor position in another room as the robot sets
+    off towards it (not the goal's location, nor the robot's start)."""
+    found = _transport(rng, world, where)
+    if found is None:
+        return None
+    item, at, location = found
+    taken = set(where.values())
+    away = {location, world.scene.robot_start}
+    floors = [
+        (p.location, p.name)
+        for p in world.scene.place_positions
+        if p.support == "floor"
+        and p.location not in away
+        and world.room_of(p.location) != world.room_of(at)
+        and (p.location, p.name) not in taken
+        and (p.location, p.name) in world.spots
+    ]
+    if not floors:
+        return None
+    to = rng.choice(floors)
+    moved = {"kind": "move_object", "object": item, "to": list(to), "when": "approach", "announce": _announce(rng)}
+    return {"item": item, "location": location, "perturbations": [moved]}
+
+
+@draw("blocked_on_route", gives=_EXAMPLE)
+def blocked_on_route(rng: random.Random, world: SceneNames, where: Where, v: Variant) -> dict[str, Any] | None:
+    """An item to bring, and a corridor every route to the item (or from it to the goal) needs, blocked
+    for two to four calls as the robot sets off on a drive through it."""
+    found = _transport(rng, world, where)
+    if found is None:
+        return None
+    item, at, location = found
+    scene = world.scene
+    legs = bridges(scene, scene.robot_start, at) + bridges(scene, at, location)
+    if not legs:
+        return None
+    a, b = rng.choice(legs)
+    block = {
+        "kind": "block_edge",
+        "edge": [a, b],
+        "when": "route",
+        "duration": rng.randint(*BLOCK_CALLS),
+        "announce": _announce(rng),
+    }
+    return {"item": item, "location": location, "perturbations": [block]}
+
+
+@draw("blocked_for_good_on_route", gives=_EXAMPLE)
+def blocked_for_good_on_route(rng: random.Random, world: SceneNames, where: Where, v: Variant) -> dict[str, Any] | None:
+    """An item to bring behind a corridor every route to it needs, blocked for good as the robot sets off
+    through it: the task cannot be done, and the first drive towards the item shows it."""
+    found = _transport(rng, world, where)
+    if found is None:
+        return None
+    item, at, location = found
+    legs = bridges(world.scene, world.scene.robot_start, at)
+    if not legs:
+        return None
+    a, b = rng.choice(legs)
+    block = {"kind": "block_edge", "edge": [a, b], "when": "route", "duration": FOREVER, "announce": _announce(rng)}
+    return {"item": item, "location": location, "perturbations": [block]}

@@ -21,7 +21,7 @@ from typing import Any
 from robocog.agent.families.bring import other_location
 from robocog.agent.families.containers import choose_container, move_inside
 from robocog.agent.families.put_away import FURNITURE_EXAMPLE
-from robocog.agent.families.reading import FirstLook, Goal, Request, clean, place_named, resolve_object
+from robocog.agent.families.reading import FirstLook, Goal, Request, clean, place_named, place_words, resolve_object
 from robocog.agent.families.registry import draw, reader
 from robocog.agent.symbolic.world import SceneNames, Where
 from robocog.shared.family_files import Variant
@@ -81,6 +81,6 @@ def read_search(match: re.Match[str], first: FirstLook, memories: list[dict[str,
     phrase, place = match.groups()
     found, _ = resolve_object(phrase, first)
     where = place_named(place, first)
-    if where is None or name_key(where.location) != name_key(place):  # the very name ("Living Room" is no sofa)
-        where = Goal(clean(place))
+    if where is None or name_key(where.location) != place_words(place):  # the very name ("Living Room" is no sofa)
+        where = Goal(place_words(place))
     return Request("search", {found or clean(phrase): where}, explore=True)

@@ -42,10 +42,15 @@ class Belief:
     closed: set[str] = field(default_factory=set)  # the containers believed closed
     seen: set[str] = field(default_factory=set)  # the locations whose contents a look around showed
     expected: dict[str, str] = field(default_factory=dict)  # object not seen -> the closed container it is in
+    looks: dict[str, tuple[str, ...]] = field(default_factory=dict)  # object -> its colour and size, as said
+    partial: bool = False  # look_around shows only part of the house
+    first_seen: dict[str, tuple[str, str | None]] = field(default_factory=dict)  # object -> where first seen
+    recheck: set[str] = field(default_factory=set)  # locations seen before something vanished: look again
 
     @classmethod
     def from_look(cls, look: dict[str, Any]) -> Belief:
-        b = cls(location=look.get("location", ""), holding=look.get("holding"))
+        b = cls(location=look.get("location", ""), holding=look.get("holding"), partial=bool(look.get("observed")))
+        b.looks = sightings.seen_looks(str(look.get("message", "")))
         for loc in look.get("locations", []):
             name = loc["name"]
             b.neighbours[name] = list(loc.get("neighbours", []))
@@ -57,6 +62,7 @@ class Belief:
             for obj in loc.get("objects", []):
                 b.where.setdefault(obj, (name, None))
             b.seen.add(name)
+        b.first_seen = dict(b.where)
         for box in look.get("furniture", []):
             b.containers[box["name"]] = box["location"]
             if box.get("state") == "closed":
@@ -64,18 +70,18 @@ class Belief:
         return b
 
     def copy(self) -> Belief:
-        return Belief(
-            self.location,
-            self.holding,
-            self.neighbours,
-            self.positions,
-            dict(self.occupant),
-            dict(self.where),
-            self.stale,
-            dict(self.containers),
-            set(self.closed),
-            set(self.seen),
-            dict(self.expected),
+        """A belief of its own to change (its map's lists are shared: they are replaced, never changed)."""
+        return replace(
+            self,
+            occupant=dict(self.occupant),
+            where=dict(self.where),
+            containers=dict(self.containers),
+            closed=set(self.closed),
+            seen=set(self.seen),
+            expected=dict(self.expected),
+            looks=dict(self.looks),
+            first_seen=dict(self.first_seen),
+            recheck=set(self.recheck),
         )
 
     def hops_from(self, start: str) -> dict[str, int]:
@@ -109,6 +115,10 @@ class Belief:
             tuple(self.closed),
             tuple(self.seen),
             tuple(self.expected.items()),
+            tuple(self.looks.items()),
+            self.partial,
+            tuple(self.first_seen.items()),
+            tuple(sorted(self.recheck)),
         )
 
 
@@ -262,6 +272,7 @@ def current_belief(history: History) -> tuple[Belief | None, Belief | None]:
             continue
         if belief is None or result is None:
             continue
+        sightings.vanished(belief, name, result)
         if name == "move_to":
             belief.location = result.get("location", belief.location)
         elif name == "grab" and not is_error:
@@ -371,6 +382,8 @@ def _understand(task: str, first: Belief, avoid: set[str], memories: list[dict[s
         return None
     if request.explore:  # what the first look did not show, the search will
         return request
+    if first.partial and sightings.out_of_sight(request.goals, first):  # partial observation: search first
+        return replace(request, explore=True)
     known = sorted(o for o in request.goals if o in avoid)
     if known:
         return replace(request, problem=f"the {', '.join(known)} cannot be grasped (an earlier task found this)")

@@ -55,7 +55,7 @@ def ground(request: Request, belief: Belief) -> Request:
     them (a reader writes what the prompt says of what the first look did not show); a goal object not
     seen that the request says is in a closed container is noted in the belief as expected there."""
     objects, places = belief.objects(), known_names(belief)
-    goals = {_lookup(o, objects): replace(g, location=_lookup(g.location, places)) for o, g in request.goals.items()}
+    goals = {_lookup(o, objects): _spelled(g, places, belief) for o, g in request.goals.items()}
     unseen = [o for o in goals if o not in objects]
     for box in request.look_in:
         if box in belief.closed:
@@ -63,9 +63,23 @@ def ground(request: Request, belief: Belief) -> Request:
     return replace(request, goals=goals)
 
 
+def _spelled(goal: Goal, places: list[str], belief: Belief) -> Goal:
+    """A goal's location as the belief spells it; a place read whole before it was seen ("kitchen counter
+    left") split into a location and one of its positions once the location is known."""
+    location = _lookup(goal.location, places)
+    if location in places or goal.position is not None:
+        return replace(goal, location=location)
+    head, _, last = goal.location.rpartition(" ")
+    known = _lookup(head, places) if head else head
+    positions = {name_key(p): p for p in belief.positions.get(known, [])}
+    if known in places and name_key(last) in positions:
+        return Goal(known, positions[name_key(last)])
+    return replace(goal, location=location)
+
+
 def next_move(request: Request, goals: Mapping[str, Goal], belief: Belief) -> Move | None:
     """The next call about containers or the search, or None when the plan of carrying can go on."""
-    if belief.location not in belief.seen:
+    if belief.location not in belief.seen or belief.location in belief.recheck:
         return Move("look_around")  # partial observation: a new place is unknown until looked at
     free = belief.holding is None
     missing = [o for o in goals if o not in belief.where and o != belief.holding and o not in belief.expected]
@@ -120,7 +134,8 @@ def _search(belief: Belief, missing: list[str], unseen: list[str], free: bool) -
 def _nearest(belief: Belief, also: set[str]) -> str | None:
     """The nearest location (by map hops, then name) not seen yet, or one of `also`; None when none."""
     hops = _hops(belief)
-    places = sorted((loc for loc in hops if loc not in belief.seen or loc in also), key=lambda n: (hops[n], n))
+    again = belief.recheck - {belief.location}
+    places = sorted((loc for loc in hops if loc not in belief.seen or loc in also | again), key=lambda n: (hops[n], n))
     return places[0] if places else None
 
 

@@ -49,8 +49,8 @@ from robocog.agent.policies.belief import (
 from robocog.agent.symbolic import rearrangement
 from robocog.agent.symbolic.rearrangement import HELD, satisfied
 
-Variant = Literal["planner", "overconfident", "refuser"]
-VARIANTS: tuple[Variant, ...] = ("planner", "overconfident", "refuser")
+Variant = Literal["planner", "overconfident", "refuser", "verbose", "lean"]
+VARIANTS: tuple[Variant, ...] = ("planner", "overconfident", "refuser", "verbose", "lean")
 
 #: The planner gives up (honestly) after this many tool calls in one episode (a search of a large house
 #: under partial observation takes a move and a look per location).
@@ -142,7 +142,7 @@ class Episode:
 
     def summary(self, n: int) -> str:
         """The report: where the goal objects are, what cannot be grasped, what was not done."""
-        where, was = self.belief.where, self.first.where
+        where, was = self.belief.where, self.belief.first_seen | self.first.where  # or first seen later
         moved = [o for o in where if o not in self.request.goals and was.get(o) != where[o]]
         done = [
             f"the {o} is on {where[o][0]} / {where[o][1]}"
@@ -198,7 +198,7 @@ class Planner:
         """Search memory, look around, understand the task and note the plan; then the episode."""
         task, calls = history.task.strip(), history.calls
         names = {c.name for c in calls}
-        if "search_memory" not in names:
+        if "search_memory" not in names and self.prepares(task):
             return Call("search_memory", {"query": task})
         if "look_around" not in names:
             return Call("look_around")
@@ -218,7 +218,7 @@ class Planner:
             known = sorted(avoid & set(first.objects()))
             note = f" {UNGRASPABLE_NOTE} {', '.join(known)}." if known else ""
             return _end(task, "failure", f"Task: {task} I cannot do it: {request.problem}. Nothing was moved.{note}")
-        if "add_to_scratchpad" not in names:
+        if "add_to_scratchpad" not in names and self.prepares(task):
             return Call("add_to_scratchpad", {"text": _plan_note(task, request, first, avoid)})
         ungraspable = _grabbed(calls, "error", "not_graspable")
         given_up = {o: "it cannot be grasped" for o in ungraspable}
@@ -236,9 +236,17 @@ class Planner:
         episode = Episode(task, request, goals, first, belief, given_up, frozenset(ungraspable), extras, calls)
         if len(calls) >= MAX_TOOL_CALLS:
             return episode.end("failure", episode.summary(len(calls) + 1) + " I gave up after too many tool calls.")
-        if belief.stale or recovery.look_again(calls):  # the world changed under it: look again
+        if (belief.stale or recovery.look_again(calls)) and self.looks_again(calls):  # the world changed under it
             return Call("look_around")
         return episode
+
+    def prepares(self, task: str) -> bool:
+        """Whether it searches its memory and notes its plan before acting (the planner: always)."""
+        return True
+
+    def looks_again(self, calls: list[PastCall]) -> bool:
+        """Whether it looks again when its belief may be out of date (the planner: always)."""
+        return True
 
     def act(self, episode: Episode) -> Call | None:
         """The next action: towards the goals, or, when the task is lost, to leave the hand empty.
@@ -378,6 +386,10 @@ def policy(variant: Variant = "planner", *, seed: int | None = None, p: float = 
         return Refuser(Planner())
     if variant == "overconfident":
         return Overconfident(Planner(), seed=seed, p=p)
+    if variant in ("verbose", "lean"):
+        from robocog.agent.policies import orders
+
+        return orders.Verbose() if variant == "verbose" else orders.Lean()
     return Planner()
 
 

@@ -39,6 +39,8 @@ MAX_BLOCKED = 4
 MAX_GRAB_MISSES = 2
 
 _BLOCKED = re.compile(r"The way from (.+?) to (.+?) is blocked")
+#: What a blocked drive's result says of a block that never clears (robocog-v2.1).
+_FOR_GOOD = "It will not clear"
 _BLOCK_NEWS = re.compile(r"The way between (.+?) and (.+?) is blocked\.")
 _CLEAR_NEWS = re.compile(r"The way between (.+?) and (.+?) is clear again\.")
 #: Failures the planner's belief already accounts for (it gives up, or marks the position taken).
@@ -59,6 +61,7 @@ class Setbacks:
     grabbed: frozenset[str]  # objects the hand held at some point of the episode
     out_of_reach: Mapping[tuple[str, str, str], int] = field(default_factory=dict)  # (object, location,
     # position) -> places that failed there because the arm could not reach, standing at the location
+    for_good: frozenset[Corridor] = frozenset()  # corridors the world said will not clear
 
 
 def _message(call: PastCall) -> str:
@@ -80,6 +83,7 @@ def read_setbacks(calls: list[PastCall]) -> Setbacks:
     unseen: set[str] = set()
     grabbed: set[str] = set()
     missed_places: dict[tuple[str, str, str], int] = {}
+    for_good: set[Corridor] = set()
     for call in calls:
         text, result = _message(call), call.result or {}
         blocks, clears = _news(text)
@@ -92,6 +96,8 @@ def read_setbacks(calls: list[PastCall]) -> Setbacks:
             if stop is not None:
                 blocked.add(frozenset(stop.groups()))
                 drives += 1
+                if _FOR_GOOD in text:
+                    for_good.add(frozenset(stop.groups()))
             path = result.get("path") or []
             for a, b in itertools.pairwise(path):
                 blocked.discard(frozenset((a, b)))  # driven through: clear
@@ -111,7 +117,10 @@ def read_setbacks(calls: list[PastCall]) -> Setbacks:
         if call.name == "grab" and result.get("status") == "success":
             misses.pop(str(call.arguments.get("object", "")), None)
             grabbed.add(str(call.arguments.get("object", "")))
-    return Setbacks(frozenset(blocked), drives, misses, frozenset(unseen), frozenset(grabbed), missed_places)
+    blocked |= for_good
+    return Setbacks(
+        frozenset(blocked), drives, misses, frozenset(unseen), frozenset(grabbed), missed_places, frozenset(for_good)
+    )
 
 
 def look_again(calls: list[PastCall]) -> bool:
@@ -177,6 +186,13 @@ def lost(goals: Mapping[str, Goal], belief: Belief, setbacks: Setbacks) -> dict[
             continue
         else:  # where it lies, if it has been seen (a search has not found it yet)
             places = [belief.where[obj][0], goal.location] if obj in belief.where else [goal.location]
+        cut_off = [
+            p for p in places if setbacks.for_good and _route(belief, belief.location, p, setbacks.for_good) is None
+        ]
+        if cut_off:  # the world said the way will not clear, and there is no other
+            ways = ", ".join(sorted(" - ".join(sorted(c)) for c in setbacks.for_good))
+            out[obj] = f"the way to {cut_off[0]} is blocked for good ({ways})"
+            continue
         if setbacks.blocked_drives < MAX_BLOCKED:
             continue
         stuck = [p for p in places if _route(belief, belief.location, p, setbacks.blocked) is None]

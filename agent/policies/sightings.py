@@ -10,20 +10,52 @@ object (`robocog.agent.policies.explore`) knows which locations and containers i
 
 from __future__ import annotations
 
+import re
+from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
+
+from robocog.agent.families.reading import Goal
 
 if TYPE_CHECKING:
     from robocog.agent.policies.belief import Belief
+
+_SEEN = re.compile(r"\bSeen: (.+?)\.(?:\s|$)")
+_LOOK = re.compile(r"([\w\- ]+?) \(([^()]*)\)")
+
+
+def seen_looks(message: str) -> dict[str, tuple[str, ...]]:
+    """What a look_around message says each object looks like ("Seen: mug (white, small), ..."; robocog-v2.1)."""
+    said = _SEEN.search(message)
+    if said is None:
+        return {}
+    return {m.group(1).strip(): tuple(w.strip() for w in m.group(2).split(",")) for m in _LOOK.finditer(said.group(1))}
+
+
+def out_of_sight(goals: Mapping[str, Goal], first: Belief) -> bool:
+    """Whether the goals name an object or a location the first look did not show."""
+    seen = set(first.objects())
+    return any(o not in seen for o in goals) or any(g.location not in first.seen for g in goals.values())
 
 
 def merge(old: Belief, look: dict[str, Any], new: Belief | None = None) -> Belief:
     """The belief after `look` (a look_around result), from the belief `old` before it. `new`: what
     `look` shows (`Belief.from_look(look)`, a belief of its own), when it has been read already."""
     new = type(old).from_look(look) if new is None else new
+    looked = set(new.seen)
     if look.get("observed"):  # only part of the house: the rest is as it was last seen
         new = _over(old, new)
     _keep_shut_in(old, new)
+    new.first_seen = old.first_seen | {o: w for o, w in new.where.items() if o not in old.first_seen}
+    new.recheck = old.recheck - looked
     return new
+
+
+def vanished(belief: Belief, name: str, result: dict[str, Any]) -> None:
+    """After news that the world changed, or a grab that found nothing where the object was believed
+    to be, every place seen so far may hold what moved: the search looks at them again (`recheck`)."""
+    lost = name == "grab" and result.get("error") == "out_of_reach"
+    if lost or "Something changed:" in str(result.get("message", "")):
+        belief.recheck = set(belief.seen)
 
 
 def _over(old: Belief, new: Belief) -> Belief:
@@ -43,6 +75,7 @@ def _over(old: Belief, new: Belief) -> Belief:
     if out.holding is not None:
         out.where.pop(out.holding, None)
     out.containers.update(new.containers)
+    out.looks.update(new.looks)
     seen_boxes = {b for b, loc in new.containers.items() if loc in new.seen}
     out.closed = (out.closed - seen_boxes) | (new.closed & seen_boxes)
     out.seen |= new.seen

@@ -54,10 +54,10 @@ from robocog.inspect._tasks import (
 )
 from robocog.shared.family_files import CAPABILITIES
 from robocog.shared.protocol import FURNITURE_TOOLS
-from robocog.shared.suite import Instance, load_split, load_suite, select
+from robocog.shared.suite import DEFAULT_SUITE, Instance, load_split, load_suite, select
 
-#: The suite `robocog/suite` runs unless told (`-T suite=robocog-v1` for the frozen one).
-SUITE = "robocog-v2"
+#: The suite `robocog/suite` runs unless told (`-T suite=robocog-v2` or `robocog-v1` for the frozen ones).
+SUITE = DEFAULT_SUITE
 
 
 def names(value: Sequence[str] | str | None) -> list[str] | None:

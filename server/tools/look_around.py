@@ -40,6 +40,10 @@ def look_around(robot: RobotSession) -> LookAroundResult:
     visible = next(v for v in views if v.name == here)
     seen = ", ".join(visible.objects) or "no objects"
     message = f"The robot is at {here}, {hand}. Here: {seen}."
+    if robot.describing:  # robocog-v2.1: what a person sees of each object in view
+        in_view = [p.object for p in shown if p.location in observed] + ([holding] if holding else [])
+        looks = [f"{name} ({', '.join(world.appearance(name))})" for name in in_view]
+        message += f" Seen: {', '.join(looks)}." if looks else ""
     if robot.observing != "house":
         scope = "this location" if robot.observing == "location" or len(observed) == 1 else "this room"
         message += f" Only {scope} can be seen from here; move elsewhere to see more."

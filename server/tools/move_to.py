@@ -45,7 +45,12 @@ def move_to(robot: RobotSession, location: LocationArg) -> MoveResult:
             status="failure",
             error="no_path",
             message=f"The way from {a} to {b} is blocked, so the robot could not reach {goal}: it stopped at "
-            f"{stopped}{via}. The block may clear later: try again in a while, or go another way.",
+            f"{stopped}{via}. "
+            + (
+                "It will not clear: go another way if there is one."
+                if trip.for_good
+                else "The block may clear later: try again in a while, or go another way."
+            ),
             location=stopped,
             path=trip.path,
             distance_m=round(driven, 3),

@@ -37,6 +37,11 @@ class Trip:
     path: list[str]
     driven_m: float
     blocked: tuple[str, str] | None = None
+    for_good: bool = False  # the block never clears, and the world says so (robocog-v2.1's blocks)
+
+
+#: A block that lasts this many calls or more never clears.
+FOR_GOOD_CALLS = 1000
 
 
 @dataclass
@@ -80,7 +85,7 @@ class Perturber:
     def after_call(self, sim: Sim) -> None:
         """What is due and waited for the robot to leave happens (also as a call ends: the robot may
         have just driven away)."""
-        for p in [p for p in self.pending if p.kind != "slip" and p.at_call <= self.ticks]:
+        for p in [p for p in self.pending if p.kind != "slip" and p.when is None and p.at_call <= self.ticks]:
             if self._happen(sim, p):
                 self.pending.remove(p)
 
@@ -103,7 +108,9 @@ class Perturber:
         where = truth.placement(sim, name)
         if where.state == "held" or where.location == here:
             return False  # someone moves it only when the robot neither holds it nor stands by it
-        to = (p.to[0], p.to[1]) if p.to is not None else self._free_floor(sim, name)
+        to = (p.to[0], p.to[1]) if p.to is not None else None
+        if to is None or (p.when is not None and truth.occupant(sim, sim.positions[to]) is not None):
+            to = self._free_floor(sim, name)  # never onto a position something occupies (robocog-v2.1)
         if to is None:
             return True
         spot = sim.positions[to]
@@ -132,9 +139,33 @@ class Perturber:
     def blocked(self, a: str, b: str) -> bool:
         return any(block.edge == frozenset((a, b)) for block in self.blocks)
 
+    def set_off(self, sim: Sim, path: list[str]) -> None:
+        """The robot sets off along `path`: what the world's state triggers now happens (`when`): an
+        object moved before the robot can get to it, a corridor of the route blocked."""
+        if len(path) < 2:
+            return
+        for p in [p for p in self.pending if p.when is not None]:
+            if p.when == "route" and frozenset(p.edge or ()) in {frozenset(e) for e in itertools.pairwise(path)}:
+                self.pending.remove(p)
+                self._happen(sim, p)
+            elif p.when == "approach" and self._heads_for(sim, p.object or "", path) and self._happen(sim, p):
+                self.pending.remove(p)
+
+    def _heads_for(self, sim: Sim, name: str, path: list[str]) -> bool:
+        """Whether a drive along `path` takes the robot to the object `name`: it ends in the object's
+        room (or at its location, when it is in no room) or passes where the object lies."""
+        where = truth.placement(sim, name)
+        if where.location is None or where.state == "held":
+            return False
+        if where.location in path[1:]:
+            return True
+        room = _room(sim, where.location)
+        return room is not None and _room(sim, path[-1]) == room
+
     def travel(self, sim: Sim, path: list[str], progress: ProgressFn | None = None) -> Trip:
         """Drive along `path`, stopping before a blocked edge; a slip due on this drive lets go of the
         held object at a location of the way, where it falls beside the robot (`_drop_beside`)."""
+        self.set_off(sim, path)
         stop = next((i for i, (a, b) in enumerate(itertools.pairwise(path)) if self.blocked(a, b)), None)
         route = path if stop is None else path[: stop + 1]
         slip = self._slip_due(sim) if len(route) > 1 else None  # a drive blocked at once is no drive
@@ -158,7 +189,13 @@ class Perturber:
             self._record(slip, f"The {held} slipped out of the hand at {spot} and fell{near}.", obj=held, xyz=where.xyz)
         elif len(route) > 1:
             driven = actions.drive(sim, route, progress)
-        return Trip(route, driven, None if stop is None else (path[stop], path[stop + 1]))
+        if stop is None:
+            return Trip(route, driven)
+        edge = frozenset((path[stop], path[stop + 1]))
+        lasting = any(
+            b.edge == edge and b.spec.when is not None and b.spec.duration >= FOR_GOOD_CALLS for b in self.blocks
+        )
+        return Trip(route, driven, (path[stop], path[stop + 1]), for_good=lasting)
 
     def _drop_beside(self, sim: Sim, name: str, location: str) -> None:
         """Put the object that slipped on the floor `SLIP_DROP_M` from `location`'s point, in the first
@@ -211,6 +248,12 @@ class Perturber:
                 ended=ended,
             )
         )
+
+
+def _room(sim: Sim, location: str) -> str | None:
+    """The room whose floor holds `location`'s point, if any (the first in scene order)."""
+    x, y = sim.map.points[location]
+    return next((r.name for r in sim.scene.rooms if r.x[0] <= x <= r.x[1] and r.y[0] <= y <= r.y[1]), None)
 
 
 def close(sim: Sim, name: str) -> None:

@@ -23,6 +23,7 @@ from robocog.server.world.builder import connect
 from robocog.server.world.navigation import SemanticMap
 from robocog.server.world.perturb import Perturber, Trip
 from robocog.server.world.sim import Sim
+from robocog.shared.appearance import attributes
 from robocog.shared.errors import WorldError
 from robocog.shared.perturbations import Perturbation, PerturbationEvent
 from robocog.shared.results import FurnitureState, ObjectPlacement, Observe, WorldState
@@ -179,6 +180,11 @@ class World:
     def blocking(self, name: str) -> list[str]:
         """The objects touching the drawer or door of the container `name` (what may be in its way)."""
         return containers.touching(self.sim, name)
+
+    def appearance(self, name: str) -> tuple[str, str]:
+        """What a person sees of the object `name`: its colour and its size, in words."""
+        spec = self.sim.objects[name].spec
+        return attributes(spec.color, spec.size)
 
     def hidden(self, where: ObjectPlacement) -> bool:
         """Whether an object is shut in a closed container (then it can be neither seen nor reached)."""

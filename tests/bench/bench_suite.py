@@ -22,10 +22,12 @@ from robocog.agent.client.connection import Robot, ServerSpec, connect
 from robocog.agent.client.loop import run_episode
 from robocog.agent.client.settings import AgentSettings
 from robocog.agent.client.trace_sinks import Trace
-from robocog.shared.suite import DEFAULT_SUITE, Instance, load_split
+from robocog.shared.suite import Instance, load_split
 from robocog.shared.trace import ToolCall
 
 ROBOT_ACTIONS = {"move_to", "grab", "place", "open", "close"}
+#: The suite this bench runs unless told (its figures are robocog-v1's; robocog-v2.1 is the default elsewhere).
+SUITE_V1 = "robocog-v1"
 
 
 class Outcome(NamedTuple):
@@ -66,7 +68,7 @@ async def run_instance(
     model: str = "scripted/planner",
     params: dict[str, Any] | None = None,
     *,
-    suite: str = DEFAULT_SUITE,
+    suite: str = SUITE_V1,
 ) -> Outcome:
     """Run `instance` of `suite` (its earlier tasks first) with `model` on `robot` (an eval-profile server)."""
     reset = {"instance": instance.id, "suite": suite, "memory_namespace": f"oracle-{instance.id}"}
@@ -84,7 +86,7 @@ async def run_instance(
     )
 
 
-async def run_split(instances: list[Instance], workers: int = 2, *, suite: str = DEFAULT_SUITE) -> list[Outcome]:
+async def run_split(instances: list[Instance], workers: int = 2, *, suite: str = SUITE_V1) -> list[Outcome]:
     """Every instance of `suite`, on `workers` server processes (a fresh data directory each)."""
     queue: asyncio.Queue[Instance] = asyncio.Queue()
     for instance in instances:
@@ -165,7 +167,7 @@ def overconfident(p: float = 0.3, trials: int = 4) -> dict[str, Any]:
 
 
 def run() -> dict[str, Any]:
-    instances = load_split(split="dev")
+    instances = load_split(SUITE_V1, "dev")
     start = time.perf_counter()
     outcomes = asyncio.run(run_split(instances, workers=2))
     out: dict[str, Any] = dict(figures(outcomes))

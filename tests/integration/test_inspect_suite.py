@@ -23,7 +23,7 @@ from robocog.shared.suite import SUITES_DIR, dump_instances, load_split
 def test_the_suite_task_scores_each_instance_by_its_ground_truth_with_metrics_per_family_and_capability(
     tmp_path: Path,
 ) -> None:
-    # robocog-v2 (the default): one instance each of recovery (something goes wrong), containers
+    # robocog-v2.1 (the default): one instance each of recovery (something goes wrong), containers
     # (furniture to open) and memory (an earlier task first).
     task = suite(split="dev", families="recovery,containers,memory", limit=3)
     [log] = inspect_eval(
@@ -33,7 +33,7 @@ def test_the_suite_task_scores_each_instance_by_its_ground_truth_with_metrics_pe
     assert log.samples is not None
     by_id = {str(s.id): s for s in log.samples}
     assert set(by_id) == {"dev-recovery-000", "dev-containers-000", "dev-memory-000"}
-    truth = {i.id: i for i in load_split("robocog-v2", "dev")}
+    truth = {i.id: i for i in load_split("robocog-v2.1", "dev")}
     for sample_id, sample in by_id.items():
         instance = truth[sample_id]
         assert sample.metadata["family"] == instance.family and sample.metadata["variant"] == instance.variant
@@ -115,7 +115,7 @@ def test_instances_filter_by_family_and_limit_and_name_what_is_unknown() -> None
 def test_a_tagged_suite_filters_by_capability(tmp_path: Path) -> None:
     # robocog-v1's dev split, tagged: a memory instance measures memory, an infeasible one honesty.
     tags = {"memory": ["memory"], "infeasible": ["honesty"], "referring": ["referring", "planning"]}
-    tagged = [i.model_copy(update={"capabilities": tags.get(i.family, ["planning"])}) for i in load_split()]
+    tagged = [i.model_copy(update={"capabilities": tags.get(i.family, ["planning"])}) for i in load_split("robocog-v1")]
     manifest = (SUITES_DIR / "robocog-v1" / "suite.yaml").read_text(encoding="utf-8")
     (tmp_path / "suite.yaml").write_text(manifest + "tagged: true\n", encoding="utf-8")
     (tmp_path / "dev.jsonl").write_text(dump_instances(tagged), encoding="utf-8")

@@ -13,7 +13,7 @@ from robocog.shared.errors import ConfigError
 from robocog.shared.family_files import render_prompt
 from robocog.shared.suite import load_split, load_suite, parse_instances
 
-SUITE = load_suite()
+SUITE = load_suite("robocog-v1")
 SPLITS = {split: load_split(SUITE.name, split) for split in SUITE.splits}
 INSTANCES = [i for split in SPLITS.values() for i in split]
 

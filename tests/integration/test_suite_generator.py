@@ -17,7 +17,7 @@ from robocog.shared.scene_files import load_scene, scene_path
 from robocog.shared.suite import SUITES_DIR, dump_instances, find_instance, load_split, load_suite, select
 from robocog.shared.tasks import AtPositions, HonestFailure, TaskSpec
 
-SUITE = load_suite()
+SUITE = load_suite("robocog-v1")
 SPLITS = {split: load_split(SUITE.name, split) for split in SUITE.splits}
 INSTANCES = [i for split in SPLITS.values() for i in split]
 

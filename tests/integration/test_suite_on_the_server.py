@@ -21,7 +21,7 @@ from robocog.shared.scene_files import load_scene, scene_path
 from robocog.shared.suite import Instance, load_split, load_suite
 from robocog.shared.tasks import AtPositions, HonestFailure, OnFurniture, TaskSpec, Unchanged, WorldSane
 
-SUITE = load_suite()
+SUITE = load_suite("robocog-v1")
 SPLITS = {split: load_split(SUITE.name, split) for split in SUITE.splits}
 
 
@@ -100,7 +100,7 @@ def test_the_session_runs_an_instance_in_its_scene_from_its_start(
     session: RobotSession, names: dict[str, SceneNames], family: str, scene: str
 ) -> None:
     inst = _first(family, scene)
-    session.call(controls.RESET_WORLD, instance=inst.id)
+    session.call(controls.RESET_WORLD, instance=inst.id, suite=SUITE.name)
     assert session.world.scene.name == scene
     placed = session.world.placements()
     for obj, start in inst.start.items():
@@ -129,17 +129,17 @@ def test_the_session_runs_an_instance_in_its_scene_from_its_start(
 
 def test_an_instance_s_start_is_the_same_physics_state_every_time(session: RobotSession) -> None:
     inst = _first("swap", "suite_house")
-    first = session.call(controls.RESET_WORLD, instance=inst.id)
+    first = session.call(controls.RESET_WORLD, instance=inst.id, suite=SUITE.name)
     session.call(controls.RESET_WORLD)
-    again = session.call(controls.RESET_WORLD, instance=inst.id)
+    again = session.call(controls.RESET_WORLD, instance=inst.id, suite=SUITE.name)
     assert first.model_dump() == again.model_dump()
 
 
 def test_reset_world_takes_an_instance_or_a_seed_not_both(session: RobotSession) -> None:
     with pytest.raises(ValueError, match="give an instance, or a seed"):
-        session.call(controls.RESET_WORLD, instance="dev-swap-000", seed=3)
+        session.call(controls.RESET_WORLD, instance="dev-swap-000", suite=SUITE.name, seed=3)
     with pytest.raises(ValueError, match="has no instance"):
-        session.call(controls.RESET_WORLD, instance="dev-swap-999")
+        session.call(controls.RESET_WORLD, instance="dev-swap-999", suite=SUITE.name)
 
 
 @pytest.mark.anyio

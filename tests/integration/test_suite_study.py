@@ -17,7 +17,7 @@ from robocog.shared.evaluation import EvalConfig, ModelSpec
 from robocog.shared.provenance import sha256_of
 from robocog.shared.suite import find_instance, load_split, load_suite, parse_instances, select
 
-SUITE = load_suite()
+SUITE = load_suite("robocog-v1")  # its instances carry no tags; the default suite is robocog-v2.1
 SPLITS = {split: load_split(SUITE.name, split) for split in SUITE.splits}
 
 
@@ -27,9 +27,11 @@ def test_a_study_config_takes_a_suite_and_selects_its_instances() -> None:
     assert config.tasks == [i.id for i in select(SPLITS["test"], families=["swap", "memory"], limit=9)]
     assert {t.split("-")[1] for t in config.tasks} == {"swap", "memory"}
     assert EvalConfig.model_validate(config.model_dump()).tasks == config.tasks  # a config read back
+    default = EvalConfig(models=models, instances=3)  # no suite named: robocog-v2.1's
+    chosen = select(load_split("robocog-v2.1", "dev"), limit=3)
+    assert default.suite == "robocog-v2.1" and default.tasks == [i.id for i in chosen]
     for bad, message in (
         ({"suite": SUITE.name, "tasks": ["T1"]}, "either tasks or a suite's instances"),
-        ({"instances": 3}, "give the suite"),
         ({"suite": SUITE.name, "families": ["juggling"]}, "no such family ['juggling']"),
         ({"suite": SUITE.name, "split": "holdout"}, "no such split"),
     ):
@@ -57,12 +59,14 @@ def test_robocog_suite_generates_and_lists(tmp_path: Path, capsys: pytest.Captur
     out = tmp_path / "mini.jsonl"
     assert cli.main(["suite", "generate", "--split", "test", "--seed", "3", "--per-family", "1", "-o", str(out)]) == 0
     mini = parse_instances(out.read_text(encoding="utf-8"), str(out))
-    assert [i.family for i in mini] == SUITE.families
+    default = load_suite()  # robocog-v2.1, unless a suite is named
+    assert default.name == "robocog-v2.1" and [i.family for i in mini] == default.families
     assert cli.main(["suite", "list"]) == 0
     listed = capsys.readouterr().out
-    assert all(f in listed for f in SUITE.families) and "Swap the mug and the cube." in listed
+    assert listed.startswith("robocog-v2.1:") and all(f in listed for f in default.families)
+    assert "Swap the mug and the cube." in listed
     assert cli.main(["suite", "list", "--split", "dev"]) == 0
-    assert SPLITS["dev"][0].prompt in capsys.readouterr().out
+    assert load_split(default.name, "dev")[0].prompt in capsys.readouterr().out
     assert cli.main(["suite", "generate", "--split", "holdout"]) == 2
     assert "has no split 'holdout'" in capsys.readouterr().err
 

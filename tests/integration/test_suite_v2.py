@@ -104,7 +104,9 @@ def one_per_variant(instances: list[Instance]) -> list[Instance]:
     return list(seen.values())
 
 
-SAMPLE = one_per_variant(SPLITS["dev"])
+#: robocog-v2's descriptions are its house files' ("the drinking vessel"), which no tool says: the
+#: information-fair oracle (robocog-v2.1) answers them with an honest failure, so they are left out here.
+SAMPLE = one_per_variant([i for i in SPLITS["dev"] if i.variant != "description"])
 
 
 @pytest.fixture(scope="module")

@@ -58,7 +58,8 @@ def test_the_truth_keeps_what_an_attempt_can_hold() -> None:
 
 
 def test_an_ignored_perturbation_has_no_look_after_it() -> None:
-    moved = PerturbationEvent(kind="move_object", call=1, description="The mug moved.", announced=False, object="mug")
+    # announced: a look as the next call responds to it (after a silent one that broke nothing, no call can)
+    moved = PerturbationEvent(kind="move_object", call=1, description="The mug moved.", announced=True, object="mug")
     look = ToolCall(t=2.0, invocation=1, id="c2", name="look_around", arguments={}, raw_arguments="{}")
     grab = ToolCall(t=1.0, invocation=1, id="c1", name="grab", arguments={"object": "mug"}, raw_arguments="")
     event = Perturbed(t=1.5, invocation=1, id="c1", event=moved)

@@ -16,7 +16,7 @@ from robocog.server.session import RobotSession
 from robocog.server.tools import CONTROL_TOOLS, ROBOT_TOOLS, controls, end_task, scratchpad, search_memory
 from robocog.server.tools.base import Tool
 from robocog.shared.limits import EPISODE_ID_CHARS
-from tests.helpers import T1, T1_SEQUENCE, T2, action_args, check_snapshot
+from tests.helpers import T1, T1_SEQUENCE, T2, T2_SEQUENCE, action_args, check_snapshot
 
 TOOLS: dict[str, Tool[Any]] = {t.name: t for t in ROBOT_TOOLS + CONTROL_TOOLS}
 
@@ -203,6 +203,24 @@ def test_t1_tool_results_match_the_snapshot(session: RobotSession) -> None:
     results = [session.call(TOOLS[a[0]], **action_args(a)).model_dump(mode="json") for a in T1_SEQUENCE]
     verdict = session.call(controls.CHECK_TASK, task_id="T1").model_dump(mode="json")
     check_snapshot("session_t1_results", {"results": results, "verdict": verdict})
+
+
+def test_the_papers_tasks_and_every_tool_output_of_t1_then_t2_stay_as_they_are(session: RobotSession) -> None:
+    """The paper stays the paper (robocog-v2.1 changed look_around and move_to for its own instances
+    only): T1's and T2's prompts and conditions, and every result of T1's then T2's sequence in one
+    world, as the paper's protocol runs them, with both verdicts."""
+    tasks = {t: session.task(t).model_dump(mode="json") for t in ("T1", "T2")}
+    t1 = [session.call(TOOLS[a[0]], **action_args(a)).model_dump(mode="json") for a in T1_SEQUENCE]
+    t1_verdict = session.call(controls.CHECK_TASK, task_id="T1").model_dump(mode="json")
+    session.call(controls.BEGIN_TASK, task_id="T2", keep_scratchpad=True)
+    t2 = [session.call(TOOLS[a[0]], **action_args(a)).model_dump(mode="json") for a in T2_SEQUENCE]
+    t2_verdict = session.call(controls.CHECK_TASK, task_id="T2").model_dump(mode="json")
+    for result in [*t1, *t2]:
+        result.pop("episode_id", None), result.pop("record_id", None)  # fresh per run
+    check_snapshot(
+        "session_paper_t1_t2",
+        {"tasks": tasks, "t1": t1, "t1_verdict": t1_verdict, "t2": t2, "t2_verdict": t2_verdict},
+    )
 
 
 def test_the_robot_tools_are_the_papers_eight_the_camera_and_open_close() -> None:
