@@ -20,7 +20,11 @@ What robocog-v2.1 uses is triggered by the world's state, not by a count of call
   while the robot neither holds it nor stands by it: whatever order an agent calls its tools in, the
   object is gone before it can be grasped;
 - `when: route` (block_edge): the corridor is blocked as the robot sets off on the first drive whose
-  route needs it (then for `duration` tool calls): the drive stops before it.
+  route needs it (then for `duration` tool calls): the drive stops before it;
+- `when: leave` (close_container): someone closes the container behind the robot on the first drive
+  that takes the robot away from it after the robot opened it (as that drive ends): whatever order an
+  agent calls its tools in, a container it must open with a free hand, and leave to fetch what goes
+  in, is shut again when it comes back.
 
 Without `when` (robocog-v1 and robocog-v2), all but `slip` are due at the `at_call`-th robot tool call
 since the reset (the episode's own count
@@ -48,9 +52,9 @@ MAX_PERTURBATIONS = 16
 
 PerturbationKind = Literal["slip", "move_object", "close_container", "block_edge"]
 #: What sets a perturbation off in the world (None: the `at_call`-th call).
-Trigger = Literal["approach", "route"]
+Trigger = Literal["approach", "route", "leave"]
 #: The kind each trigger applies to.
-TRIGGER_KINDS: dict[str, str] = {"approach": "move_object", "route": "block_edge"}
+TRIGGER_KINDS: dict[str, str] = {"approach": "move_object", "route": "block_edge", "leave": "close_container"}
 
 #: A name inside a pair (a location, a position).
 Name = Annotated[str, Field(min_length=1, max_length=NAME_CHARS)]
@@ -68,7 +72,8 @@ class Perturbation(BaseModel):
     when: Trigger | None = Field(
         default=None,
         description="approach (move_object): as the robot sets off towards the object; route (block_edge): as "
-        "the robot sets off on a drive that needs the corridor; absent: at `at_call`",
+        "the robot sets off on a drive that needs the corridor; leave (close_container): behind the robot, on "
+        "its first drive away from the container after it opened it; absent: at `at_call`",
     )
     on_drive: int = Field(default=1, ge=1, le=100, description="slip: during this drive with an object in hand")
     object: str | None = Field(default=None, min_length=1, max_length=NAME_CHARS, description="move_object: which")

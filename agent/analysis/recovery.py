@@ -77,7 +77,7 @@ def noticed(events: Sequence[TraceEvent]) -> bool | None:
     event = events[at]
     assert isinstance(event, Perturbed)
     broken = _broken(events, at)
-    thing = event.event.object
+    thing, shut = event.event.object, event.event.container
 
     def responds(e: ToolCall) -> bool:
         if e is broken:  # the failure the perturbation caused is no sign the agent saw it
@@ -86,6 +86,8 @@ def noticed(events: Sequence[TraceEvent]) -> bool | None:
             return True
         if broken is not None and (e.name, e.arguments) == (broken.name, broken.arguments):
             return True
+        if shut is not None and e.name == "open" and (e.arguments or {}).get("furniture") == shut:
+            return True  # opens again the container someone closed
         return thing is not None and e.name == "grab" and (e.arguments or {}).get("object") == thing
 
     chances = [at] if event.event.announced else []

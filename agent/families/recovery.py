@@ -25,7 +25,8 @@ import math
 import random
 from typing import Any
 
-from robocog.agent.families.bring import item_elsewhere
+from robocog.agent.families.bring import item_elsewhere, other_location
+from robocog.agent.families.containers import CONTAINER_EXAMPLE, item_into_container
 from robocog.agent.families.registry import draw
 from robocog.agent.symbolic.world import SceneNames, Where
 from robocog.shared.family_files import Variant
@@ -175,7 +176,8 @@ def blocked_for_good(rng: random.Random, world: SceneNames, where: Where, v: Var
 # Whatever order an agent calls its tools in, each of these happens before its goal can be reached and
 # changes what it must do: the item is moved as the robot sets off towards it (`when: approach`); a
 # corridor every route needs is blocked as the robot sets off on a drive that needs it (`when: route`),
-# for a few calls or for good. No perturbation puts anything on a position something occupies.
+# for a few calls or for good; a container the robot opened is closed behind it as it drives away to
+# fetch what goes in (`when: leave`). No perturbation puts anything on a position something occupies.
 
 
 def bridges(scene: Scene, start: str, goal: str) -> list[tuple[str, str]]:
@@ -188,12 +190,24 @@ def bridges(scene: Scene, start: str, goal: str) -> list[tuple[str, str]]:
 
 @draw("moved_on_approach", gives=_EXAMPLE)
 def moved_on_approach(rng: random.Random, world: SceneNames, where: Where, v: Variant) -> dict[str, Any] | None:
-    """An item to bring, which someone moves to a free floor position in another room as the robot sets
-    off towards it (not the goal's location, nor the robot's start)."""
-    found = _transport(rng, world, where)
-    if found is None:
+    """An item to bring, in the robot's own room (so the first look shows it, even when a look shows only
+    the room), which someone moves to a free floor position in another room as the robot sets off
+    towards it (not the goal's location, nor the robot's start). An item the agent never saw could be
+    moved into a room it had already searched, and nothing it is told would say so: the move must
+    take away what the agent knows."""
+    start = world.scene.robot_start
+    here = [
+        o
+        for o in world.graspable
+        if (s := where[o]) is not None and s[0] != start and world.room_of(s[0]) == world.room_of(start)
+    ]
+    if not here:
         return None
-    item, at, location = found
+    item = rng.choice(here)
+    at = (where[item] or ("", ""))[0]
+    location = other_location(rng, world, at)
+    if location is None or all(s in where.values() for s in world.spots_at(location)):
+        return None
     taken = set(where.values())
     away = {location, world.scene.robot_start}
     floors = [
@@ -249,3 +263,20 @@ def blocked_for_good_on_route(rng: random.Random, world: SceneNames, where: Wher
     a, b = rng.choice(legs)
     block = {"kind": "block_edge", "edge": [a, b], "when": "route", "duration": FOREVER, "announce": _announce(rng)}
     return {"item": item, "location": location, "perturbations": [block]}
+
+
+@draw("closed_on_leaving", gives={"item": "mug", "shut": ["kitchen_fridge"], **CONTAINER_EXAMPLE})
+def closed_on_leaving(rng: random.Random, world: SceneNames, where: Where, v: Variant) -> dict[str, Any] | None:
+    """An item to put into a container (closed, as all are at the start) that stands elsewhere, so the
+    robot must open the container with its hand free and drive away to fetch the item: someone closes
+    the container behind it as it goes, and it finds it shut when it comes back with the item."""
+    params = item_into_container(rng, world, where, v)
+    if params is None:
+        return None
+    box = params["shut"][0]
+    at = where.get(params["item"])
+    home = next(c.location for c in world.scene.containers if c.name == box)
+    if at is None or at[0] == home:
+        return None
+    shut = {"kind": "close_container", "container": box, "when": "leave", "announce": _announce(rng)}
+    return {**params, "perturbations": [shut]}

@@ -27,6 +27,16 @@ from robocog.agent.study_protocols import task_of
 UNGRASPABLE_NOTE = "Objects that cannot be grasped:"
 
 
+#: A failed place or grab names the closed container in the way: "..., which is closed. open('NAME') first."
+_CLOSED_OVER = re.compile(r"which is closed\. open\('([^']+)'\) first")
+
+
+def closed_over(result: dict[str, Any]) -> str | None:
+    """The closed container a failed action's result says is in the way (not the arm's reach), if any."""
+    found = _CLOSED_OVER.search(str(result.get("message", ""))) if result.get("status") == "failure" else None
+    return found.group(1) if found else None
+
+
 @dataclass
 class Belief:
     """What the planner believes, from its last look around and the results since."""
@@ -290,6 +300,8 @@ def current_belief(history: History) -> tuple[Belief | None, Belief | None]:
             if placed is not None:  # a successful place names the object
                 belief.where[placed] = key
             belief.holding = None
+        elif name == "place" and (shut := closed_over(result)) is not None:
+            belief.closed.add(shut)  # inside a container that is closed (someone shut it?): open it first
         elif name == "place" and result.get("error") in ("position_occupied", "out_of_reach"):
             key = (result.get("location"), result.get("position"))  # taken, or beyond the arm: try another
             if belief.occupant.get(key) is None:

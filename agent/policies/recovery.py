@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from robocog.agent.families.reading import Goal
-from robocog.agent.policies.belief import Belief, PastCall
+from robocog.agent.policies.belief import Belief, PastCall, closed_over
 
 if TYPE_CHECKING:
     from robocog.agent.policies.planner import Call
@@ -107,7 +107,12 @@ def read_setbacks(calls: list[PastCall]) -> Setbacks:
                 unseen.add(obj)
             elif "move_to(" not in text:
                 misses[obj] = misses.get(obj, 0) + 1
-        if call.name == "place" and result.get("error") == "out_of_reach" and "move_to(" not in text:
+        if (
+            call.name == "place"
+            and result.get("error") == "out_of_reach"
+            and "move_to(" not in text
+            and not closed_over(result)
+        ):
             key = (
                 str(result.get("object", "")),
                 str(call.arguments.get("location")),

@@ -185,14 +185,14 @@ def check_task(
         ),
     ] = True,
 ) -> TaskVerdict:
-    """The ground-truth verdict of a task for the world as it is now, against the current
-    episode's start, with a reason per object. If the current episode ended with a report (and
+    """The ground-truth verdict of a task for the world as it is now (once nothing moves), against
+    the current episode's start, with a reason per object. If the current episode ended with a report (and
     was not begun for another task), the verdict is written into that episode's memory record,
     and into no other (unless record is false)."""
     episode = robot.episode
     world = robot.world
     closed = {name: world.furniture(name).state == "closed" for name in world.container_names}
-    verdict = evaluate(robot.task(task_id), world.placements(), episode.baseline, episode.report, closed)
+    verdict = evaluate(robot.task(task_id), world.placements_at_rest(), episode.baseline, episode.report, closed)
     same_task = episode.task_id is None or episode.task_id == task_id
     if record and episode.ended and episode.record_id is not None and same_task:
         try:

@@ -62,6 +62,7 @@ class Perturber:
     call: int = 0  # the episode's call now (what an event records)
     ticks: int = 0  # robot tool calls since the reset (what `at_call` and `duration` count)
     loaded_drives: int = 0
+    opened: set[str] = field(default_factory=set)  # the containers the robot opened since the reset
 
     @classmethod
     def arm(cls, perturbations: list[Perturbation], seed: int | None) -> Perturber:
@@ -139,17 +140,33 @@ class Perturber:
     def blocked(self, a: str, b: str) -> bool:
         return any(block.edge == frozenset((a, b)) for block in self.blocks)
 
-    def set_off(self, sim: Sim, path: list[str]) -> None:
+    def opened_by_robot(self, name: str) -> None:
+        """The robot opened the container `name` (what `when: leave` waits for)."""
+        self.opened.add(name)
+
+    def set_off(self, sim: Sim, path: list[str]) -> list[Perturbation]:
         """The robot sets off along `path`: what the world's state triggers now happens (`when`): an
-        object moved before the robot can get to it, a corridor of the route blocked."""
+        object moved before the robot can get to it, a corridor of the route blocked. What happens
+        behind the robot once it has gone (`leave`) is returned, for the drive's end."""
         if len(path) < 2:
-            return
+            return []
+        behind = []
         for p in [p for p in self.pending if p.when is not None]:
             if p.when == "route" and frozenset(p.edge or ()) in {frozenset(e) for e in itertools.pairwise(path)}:
                 self.pending.remove(p)
                 self._happen(sim, p)
             elif p.when == "approach" and self._heads_for(sim, p.object or "", path) and self._happen(sim, p):
                 self.pending.remove(p)
+            elif p.when == "leave" and self._leaves(sim, p.container or "", path):
+                behind.append(p)
+        return behind
+
+    def _leaves(self, sim: Sim, name: str, path: list[str]) -> bool:
+        """Whether a drive along `path` takes the robot away from the container `name`, open since the
+        robot opened it."""
+        if name not in self.opened or containers.is_closed(sim, name):
+            return False
+        return path[0] == sim.containers[name].geometry.spec.location != path[-1]
 
     def _heads_for(self, sim: Sim, name: str, path: list[str]) -> bool:
         """Whether a drive along `path` takes the robot to the object `name`: it ends in the object's
@@ -165,7 +182,7 @@ class Perturber:
     def travel(self, sim: Sim, path: list[str], progress: ProgressFn | None = None) -> Trip:
         """Drive along `path`, stopping before a blocked edge; a slip due on this drive lets go of the
         held object at a location of the way, where it falls beside the robot (`_drop_beside`)."""
-        self.set_off(sim, path)
+        behind = self.set_off(sim, path)
         stop = next((i for i, (a, b) in enumerate(itertools.pairwise(path)) if self.blocked(a, b)), None)
         route = path if stop is None else path[: stop + 1]
         slip = self._slip_due(sim) if len(route) > 1 else None  # a drive blocked at once is no drive
@@ -189,6 +206,9 @@ class Perturber:
             self._record(slip, f"The {held} slipped out of the hand at {spot} and fell{near}.", obj=held, xyz=where.xyz)
         elif len(route) > 1:
             driven = actions.drive(sim, route, progress)
+        for p in behind if len(route) > 1 else []:  # a drive blocked at once left nothing behind
+            self.pending.remove(p)
+            self._happen(sim, p)
         if stop is None:
             return Trip(route, driven)
         edge = frozenset((path[stop], path[stop + 1]))

@@ -156,6 +156,15 @@ class World:
         """Every object's placement, in scene order."""
         return truth.placements(self.sim)
 
+    def placements_at_rest(self) -> dict[str, ObjectPlacement]:
+        """Every object's placement once the world has come to rest (at most the scene's settle_steps).
+
+        A cylinder standing on a board rocks on its rim now and then (Bullet's cylinder-box contact),
+        and at an unlucky instant its speed tops rest_speed, so an object nobody touched read as loose.
+        A verdict is about where things end up, so it waits for a step at which nothing moves."""
+        self.sim.settle()
+        return truth.placements(self.sim)
+
     def occupant(self, location: str, position: str, ignore: str | None = None) -> str | None:
         """The object (other than `ignore` and the held one) lying on a place position, moving or not."""
         return truth.occupant(self.sim, self.sim.positions[(location, position)], ignore)
@@ -257,4 +266,7 @@ class World:
 
     def operate(self, name: str, *, opened: bool) -> Operation:
         """Open (or close) the container `name`: the hand to its handle, its joint driven by the motor."""
-        return articulation.operate(self.sim, name, opened)
+        op = articulation.operate(self.sim, name, opened)
+        if opened and op.outcome != "unreachable":
+            self.perturber.opened_by_robot(name)
+        return op

@@ -199,6 +199,36 @@ def test_a_container_closed_behind_the_robots_back_hides_its_contents(kitchen: W
     assert (event.kind, event.container, event.call) == ("close_container", "kitchen_drawer", 4)
 
 
+def test_a_container_the_robot_opened_is_closed_behind_it_on_its_first_drive_away(kitchen: World) -> None:
+    leaving = Perturbation(kind="close_container", container="kitchen_drawer", when="leave", announce=True)
+    kitchen.reset(perturbations=[leaving])
+    robot = session_for(kitchen)
+    assert perform(robot, ("move_to", "Kitchen Drawer")).status == "success"  # drives to it: nothing yet
+    assert perform(robot, ("look_around",)).status == "success"
+    assert robot.call(TOOLS["open"], furniture="kitchen_drawer").outcome == "opened"
+    assert perform(robot, ("look_around",)).status == "success"  # however many calls, while it stays
+    assert kitchen.furniture("kitchen_drawer").state == "open"
+    away = perform(robot, ("move_to", "Kitchen Area Left"))  # it leaves: someone shuts it behind it
+    assert "Something changed: Someone closed the kitchen drawer." in away.message
+    assert kitchen.furniture("kitchen_drawer").state == "closed"
+    [event] = kitchen.perturbation_events
+    assert (event.kind, event.container) == ("close_container", "kitchen_drawer")
+    perform(robot, ("move_to", "Kitchen Drawer"))
+    assert robot.call(TOOLS["open"], furniture="kitchen_drawer").outcome == "opened"
+    perform(robot, ("move_to", "Kitchen Area Left"))  # it happens once
+    assert kitchen.furniture("kitchen_drawer").state == "open"
+
+
+def test_leave_waits_for_the_robot_to_open_the_container(kitchen: World) -> None:
+    leaving = Perturbation(kind="close_container", container="kitchen_drawer", when="leave")
+    kitchen.reset(perturbations=[leaving])
+    robot = session_for(kitchen)
+    perform(robot, ("move_to", "Kitchen Drawer"))
+    perform(robot, ("move_to", "Kitchen Area Left"))  # it leaves a drawer it never opened
+    assert kitchen.perturbation_events == []
+    assert kitchen.perturber.pending == [leaving]
+
+
 # --- declared in a scene ---------------------------------------------------------------------------
 
 
