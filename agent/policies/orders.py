@@ -35,13 +35,15 @@ class Lean(Planner):
     """The planner in a lean order: look, move, grab, move, place, end. It neither searches its memory
     nor writes a plan (but for a task that needs what memory holds), never looks again unless a call
     failed (an announcement of a change it reads, but does not look for), and ends without a last look.
-    Under partial observation it looks at each place it has not seen, as a search must."""
+    Under partial observation it looks at each place it has not seen, as a search must, and so into a
+    container it has just opened."""
 
     def prepares(self, task: str) -> bool:
         return "back" in task.lower().split()  # only a task that needs what memory holds
 
     def looks_again(self, calls: list[PastCall]) -> bool:
-        return bool(calls) and calls[-1].is_error
+        # After a failure; and into a container it just opened, a place it has not seen.
+        return bool(calls) and (calls[-1].is_error or calls[-1].name == "open")
 
     def conclude(self, episode: Episode) -> Call:
         belief = episode.belief

@@ -46,7 +46,9 @@ def merge(old: Belief, look: dict[str, Any], new: Belief | None = None) -> Belie
         new = _over(old, new)
     _keep_shut_in(old, new)
     new.first_seen = old.first_seen | {o: w for o, w in new.where.items() if o not in old.first_seen}
-    new.recheck = old.recheck - looked
+    gone = [o for o, (loc, _) in old.where.items() if loc in looked and o not in new.where and o != new.holding]
+    # Something is not where it was seen: it may be anywhere, the places seen before too (`vanished`).
+    new.recheck = ((old.seen | old.recheck) if gone else old.recheck) - looked
     return new
 
 

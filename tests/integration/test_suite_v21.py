@@ -135,13 +135,20 @@ def test_every_referring_description_names_what_the_tools_say_and_fits_one_objec
 
 def test_perturbations_are_set_off_by_the_world_and_never_onto_an_occupied_position() -> None:
     recovery = [i for i in INSTANCES if i.family == "recovery"]
-    assert {i.variant for i in recovery} == {"slip", "moved", "blocked", "blocked_for_good"}
+    assert {i.variant for i in recovery} == {"slip", "moved", "blocked", "blocked_for_good", "closed"}
+    scenes = {i.scene: SceneNames(load_scene(scene_path(i.scene))) for i in recovery}
     for i in recovery:
         (p,) = i.perturbations
         assert p.kind == "slip" or p.when is not None, i.id  # never a count of calls
+        world = scenes[i.scene]
         if p.kind == "move_object":
             assert p.to is not None and tuple(p.to) not in {(s.location, s.position) for s in i.start.values()}, i.id
-    assert Counter(i.variant for i in recovery)["moved"] >= 1
+            start, at = world.scene.robot_start, i.start[p.object or ""].location
+            assert at != start and world.room_of(at) == world.room_of(start), i.id  # the first look shows it
+        if p.kind == "close_container":
+            (container,) = [c for c in world.scene.containers if c.name == p.container]
+            assert p.when == "leave" and i.start[i.parameters["item"]].location != container.location, i.id
+    assert min(Counter(i.variant for i in recovery)[v] for v in ("moved", "closed")) >= 10
 
 
 @pytest.mark.parametrize("name", ["household", "suite_house", "house-002"])
