@@ -19,6 +19,7 @@ from robocog.server.events import EventBus
 from robocog.server.fleet import Fleet, Robot
 from robocog.server.handles import DriverIds
 from robocog.server.ownership import HOW_TO_GET_A_HANDLE, Driver
+from robocog.shared.errors import WorldError
 from robocog.shared.protocol import DRIVER_META_KEY
 
 if TYPE_CHECKING:
@@ -94,10 +95,11 @@ class AppState:
         return await self.run_on(await self.robot(ctx), fn)
 
     async def run_on(self, robot: Robot, fn: Callable[[RobotSession], T]) -> T:
-        """Run `fn(session)` on `robot`, serialised, to completion; a `ValueError` becomes a tool error."""
+        """Run `fn(session)` on `robot`, serialised, to completion; a `ValueError` (bad input) or a
+        `WorldError` (an action past its bounds) becomes a tool error with its message."""
         try:
             return await self.fleet.call(robot, fn)
-        except ValueError as exc:
+        except (ValueError, WorldError) as exc:
             raise ToolError(str(exc)) from exc
 
 
