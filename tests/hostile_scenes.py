@@ -1,8 +1,8 @@
 """Hostile scene files: the shipped household with one thing made extreme (a location at x = 1e15, a
-time step of 1e-9, a room of 1e300 m, 10,000 objects or walls, a 1e9 m cube, a robot or URDF path that
-leaves the scene's folder, a file of 3 MB). Each is refused at load in one line naming what is wrong;
-the tests (tests/e2e/test_hostile_scenes.py) and the bench of refusal times (tests/bench/bench_edges.py)
-write them with `write_all`."""
+time step of 1e-9, a room of 1e300 m, 10,000 objects or walls, 300 more locations, a 1e9 m cube, a
+robot or URDF path that leaves the scene's folder, a file of 3 MB). Each is refused at load in one
+line naming what is wrong; the tests (tests/e2e/test_hostile_scenes.py) and the bench of refusal
+times (tests/bench/bench_edges.py) write them with `write_all`."""
 
 from __future__ import annotations
 
@@ -46,6 +46,10 @@ def _many_walls(s: Scene) -> None:
     s["walls"] = [copy.deepcopy(wall) for _ in range(10_000)]
 
 
+def _many_locations(s: Scene) -> None:
+    s["locations"] += [{"name": f"spot {i}", "x": 0.0, "y": 0.0} for i in range(300)]
+
+
 def _huge_cube(s: Scene) -> None:
     s["objects"][0]["size"] = [1e9, 1e9, 1e9]
 
@@ -67,8 +71,9 @@ HOSTILE: dict[str, tuple[Callable[[Scene], None], str]] = {
     "far_location": (_far_location, "locations[1].x"),
     "tiny_time_step": (_tiny_time_step, "physics.time_step"),
     "huge_room": (_huge_room, "rooms[0].x"),
-    "many_objects": (_many_objects, "objects: List should have at most 100 items"),
-    "many_walls": (_many_walls, "walls: List should have at most 500 items"),
+    "many_objects": (_many_objects, "bytes, more than the 262,144 such a file may have"),
+    "many_walls": (_many_walls, "bytes, more than the 262,144 such a file may have"),
+    "many_locations": (_many_locations, "locations: List should have at most 200 items"),
     "huge_cube": (_huge_cube, "objects[0].size"),
     "huge_mass": (_huge_mass, "objects[0].mass"),
     "robot_escapes": (_robot_escapes, "robot: '../../../../etc/passwd' lies outside"),
@@ -106,7 +111,7 @@ def write_all(folder: Path) -> dict[str, tuple[Path, str]]:
         path.write_text(yaml.safe_dump(scene, sort_keys=False), encoding="utf-8")
         out[name] = (path, words)
     big = folder / "huge_file.yaml"
-    big.write_text(yaml.safe_dump(_household(), sort_keys=False) + ("# padding\n" * 330_000), encoding="utf-8")
+    big.write_text(yaml.safe_dump(_household(), sort_keys=False) + ("# padding\n" * 330_000), encoding="utf-8")  # 3 MB
     out["huge_file"] = (big, "more than the")
     link = folder / "robot-link.yaml"
     if not link.exists():
