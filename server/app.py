@@ -26,9 +26,12 @@ from mcp.server.context import ServerRequestContext
 from mcp.server.lowlevel.helper_types import ReadResourceContents
 from mcp.server.mcpserver import Context, MCPServer
 from mcp.server.mcpserver.exceptions import ResourceError, ToolError, UnexpectedResourceError
+from mcp.shared.exceptions import MCPError
 from mcp_types import (
+    INVALID_PARAMS,
     CallToolResult,
     EmptyResult,
+    GetPromptResult,
     InputRequiredResult,
     SetLevelRequestParams,
     SubscribeRequestParams,
@@ -86,6 +89,37 @@ class RobocogServer(MCPServer[AppState]):
             if not isinstance(exc.__cause__, ValidationError):
                 raise
             raise ToolError(invalid_arguments(name, exc.__cause__)) from exc.__cause__
+
+    async def get_prompt(
+        self, name: str, arguments: dict[str, Any] | None = None, context: Context[AppState, Any] | None = None
+    ) -> GetPromptResult | InputRequiredResult:
+        """A prompt; wrong arguments (missing, unexpected) are the caller's mistake, answered in one line as
+        invalid params, not an internal error whose traceback the log repeats on every call."""
+        try:
+            return await super().get_prompt(name, arguments, context)
+        except ValueError as exc:
+            raise MCPError(INVALID_PARAMS, await self._prompt_problem(name, arguments or {}, exc)) from None
+
+    async def _prompt_problem(self, name: str, arguments: dict[str, Any], exc: ValueError) -> str:
+        prompt = next((p for p in await self.list_prompts() if p.name == name), None)
+        if prompt is None:
+            return f"unknown prompt {name!r}; the prompts are: {', '.join(p.name for p in await self.list_prompts())}"
+        takes = [a.name for a in prompt.arguments or []]
+        needed = [a.name for a in prompt.arguments or [] if a.required]
+        unexpected = sorted(set(arguments) - set(takes))
+        missing = [a for a in needed if a not in arguments]
+        what = f"takes {', '.join(takes)}" if takes else "takes no arguments"
+        if unexpected or missing:
+            got = "; ".join(
+                part
+                for part in (
+                    f"unexpected: {', '.join(unexpected)}" if unexpected else "",
+                    f"missing: {', '.join(missing)}" if missing else "",
+                )
+                if part
+            )
+            return f"prompt {name!r} {what} ({got})"
+        return f"prompt {name!r}: {' '.join(str(exc).split())[:300]}"
 
     async def read_resource(
         self, uri: Any, context: Context[AppState, Any] | None = None

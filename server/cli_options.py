@@ -10,6 +10,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from robocog.server.config import DEFAULT_MAX_SESSIONS, DEFAULT_SESSION_IDLE_S
+from robocog.shared.cli_parser import OneLineParser
 
 DESCRIPTION = """\
 A simulated household robot (PyBullet) behind the Model Context Protocol.
@@ -44,7 +45,7 @@ environment:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = OneLineParser(
         prog="robocog-server",
         allow_abbrev=False,  # a router passes arguments on to its fleet processes by their full names
         description=DESCRIPTION,

@@ -23,7 +23,7 @@ from robocog.server.memory.episodic import EpisodicMemory
 from robocog.server.memory.scratchpad import Scratchpad
 from robocog.server.tools.base import Caller, Tool
 from robocog.server.world.tasks import task_catalogue
-from robocog.server.world.world import World
+from robocog.server.world.world import ActionLimit, World
 from robocog.shared.perturbations import Perturbation, PerturbationEvent
 from robocog.shared.results import ObjectPlacement, WorldState
 from robocog.shared.scene_files import scene_path
@@ -222,11 +222,15 @@ class RobotSession:
             self.world.before_call(self.episode.tool_calls)
         self.caller = caller or Caller()
         try:
-            result = tool.run(self, **arguments)
-            if tool.counts_as_episode_call and (caller is None or caller.counts):
-                self.world.after_call()
+            with self.world.action():  # bounded in simulated steps and wall time (an ActionLimit past them)
+                result = tool.run(self, **arguments)
+                if tool.counts_as_episode_call and (caller is None or caller.counts):
+                    self.world.after_call()
         except ValueError as exc:
             logger.log(NOTICE, "%s: bad input: %s", tool.name, exc)
+            raise
+        except ActionLimit as exc:
+            logger.warning("%s: %s", tool.name, exc)
             raise
         finally:
             self.caller = Caller()

@@ -4,6 +4,7 @@ and the viewer all read it, and it imports none of them."""
 
 from __future__ import annotations
 
+import logging
 import os
 from collections.abc import Callable
 from contextvars import ContextVar
@@ -18,8 +19,12 @@ from robocog.server.clients import Clients
 from robocog.server.events import EventBus
 from robocog.server.fleet import Fleet, Robot
 from robocog.server.handles import DriverIds
+from robocog.server.memory.episodic import storage_problem
 from robocog.server.ownership import HOW_TO_GET_A_HANDLE, Driver
+from robocog.shared.errors import WorldError
 from robocog.shared.protocol import DRIVER_META_KEY
+
+logger = logging.getLogger("robocog.server")
 
 if TYPE_CHECKING:
     from robocog.server.session import RobotSession
@@ -94,11 +99,19 @@ class AppState:
         return await self.run_on(await self.robot(ctx), fn)
 
     async def run_on(self, robot: Robot, fn: Callable[[RobotSession], T]) -> T:
-        """Run `fn(session)` on `robot`, serialised, to completion; a `ValueError` becomes a tool error."""
+        """Run `fn(session)` on `robot`, serialised, to completion; a `ValueError` (bad input), a
+        `WorldError` (an action past its bounds) or the memory's storage failing (`storage_problem`)
+        becomes a tool error with its reason, never the SDK's bare "Error executing tool X"."""
         try:
             return await self.fleet.call(robot, fn)
-        except ValueError as exc:
+        except (ValueError, WorldError) as exc:
             raise ToolError(str(exc)) from exc
+        except Exception as exc:  # the memory's storage failed (a full disk, a read-only database): say why
+            problem = storage_problem(exc)
+            if problem is None:
+                raise
+            logger.error("%s", problem)
+            raise ToolError(problem) from exc
 
 
 def fleet_origin() -> str:

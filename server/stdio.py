@@ -26,6 +26,8 @@ from typing import Any, cast
 from mcp.server.mcpserver import MCPServer
 from mcp.server.stdio import stdio_server
 
+from robocog.server.world.sim import SHUTTING_DOWN
+
 #: The longest line (one JSON-RPC message) read from stdin; the SDK's own transport has no limit.
 LINE_LIMIT = 256 * 1024 * 1024
 
@@ -41,7 +43,8 @@ class _Lines:
 
     async def __anext__(self) -> str:
         line = await self._reader.readline()
-        if not line:
+        if not line:  # the client has gone: a running action stops at its next check, and the server exits
+            SHUTTING_DOWN.set()
             raise StopAsyncIteration
         return line.decode("utf-8", errors="replace")
 
@@ -124,3 +127,4 @@ async def serve_stdio(server: MCPServer[Any]) -> None:
         streams = stdio_server() if pipes is None else stdio_server(cast(Any, pipes[0]), cast(Any, pipes[1]))
         async with streams as (read_stream, write_stream):
             await lowlevel.run(read_stream, write_stream, lowlevel.create_initialization_options())
+    SHUTTING_DOWN.set()  # stdin has ended (also on the SDK's own transport): nothing more is to run

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Annotated, Any, TypeVar
 
@@ -82,9 +83,23 @@ def _non_finite(data: Any, where: str = "") -> str | None:
     return None
 
 
-def read_yaml(path: Path) -> Any:
-    """The YAML data of `path`; `ConfigError` (one line: file, where, problem) when it cannot be read."""
+def inside(path: Path, roots: Sequence[Path]) -> bool:
+    """Whether `path`, its links followed, lies in one of the folders `roots` (theirs followed too)."""
     try:
+        real = path.resolve()
+    except (OSError, RuntimeError):  # a loop of links
+        return False
+    return any(real.is_relative_to(root.resolve()) for root in roots)
+
+
+def read_yaml(path: Path, max_bytes: int | None = None) -> Any:
+    """The YAML data of `path`; `ConfigError` (one line: file, where, problem) when it cannot be read,
+    or when it is longer than `max_bytes`."""
+    try:
+        if max_bytes is not None and path.stat().st_size > max_bytes:
+            raise ConfigError(
+                f"{path}: {path.stat().st_size:,} bytes, more than the {max_bytes:,} such a file may have"
+            )
         raw = path.read_bytes()
     except FileNotFoundError as exc:
         raise ConfigError(f"{path}: file not found") from exc
@@ -117,12 +132,13 @@ def read_yaml(path: Path) -> Any:
         raise ConfigError(f"{path}: not valid YAML: nested too deeply") from exc
 
 
-def load_yaml_model(path: Path, model: type[M]) -> M:
+def load_yaml_model(path: Path, model: type[M], max_bytes: int | None = None) -> M:
     """Read `path` as YAML and validate it as `model`; errors name the file, the field and the problem.
 
-    Every error is one line, `FILE: FIELD: problem` (`FILE: line L, column C: ...` for YAML syntax).
+    Every error is one line, `FILE: FIELD: problem` (`FILE: line L, column C: ...` for YAML syntax); a
+    file longer than `max_bytes` is refused before it is read.
     """
-    data = read_yaml(path)
+    data = read_yaml(path, max_bytes)
     if not isinstance(data, dict):
         got = "an empty file" if data is None else f"a {type(data).__name__}"
         raise ConfigError(f"{path}: expected a mapping of fields (name: value), got {got}")

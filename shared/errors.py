@@ -25,3 +25,8 @@ class ModelServiceError(RobocogError):
 
 class ServerConnectionError(RobocogError):
     """The robot server could not be started or reached, or failed while serving a call."""
+
+
+class MemoryStorageError(ServerConnectionError):
+    """The robot server's episodic memory cannot be written or read (a full disk, a read-only or removed
+    database): the attempt errs with the reason, and no retry on that server helps."""

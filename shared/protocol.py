@@ -19,6 +19,11 @@ ROBOT_ID_ARG = "robot_id"
 #: a client reports it as the server's answer and stops, never as the model's failure.
 FLEET_FULL = "robots of this server are driven by other sessions"
 
+#: Words every error of a server whose episodic memory cannot be read or written holds (a full disk, a
+#: read-only or removed database), followed by the reason: a client reports it as the server's failure
+#: (the attempt errs, with the reason in its row), never as the model's, and never retries it.
+MEMORY_FAILED = "the robot's episodic memory failed"
+
 #: The eval profile's controls for harnesses: a client never offers them to the model it drives.
 CONTROL_TOOLS = frozenset({"reset_world", "begin_task", "check_task", "clear_memory"})
 

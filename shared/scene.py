@@ -12,13 +12,15 @@ Objects may carry `descriptions`, the referring expressions a task names them by
 
 from __future__ import annotations
 
+from collections import Counter
 from pathlib import Path
 from typing import Annotated, Literal
 
 from pydantic import BaseModel, Field, model_validator
 
 from robocog.assets import ASSETS_DIR
-from robocog.shared.config_files import STRICT_CONFIG, Positive, Rgba, Vec2, Vec3
+from robocog.shared import scene_bounds as bounds
+from robocog.shared.config_files import STRICT_CONFIG, Rgba
 from robocog.shared.limits import NAME_CHARS
 from robocog.shared.names import name_key
 from robocog.shared.perturbations import MAX_PERTURBATIONS, Perturbation
@@ -32,34 +34,34 @@ class Room(_Strict):
     """A rectangular floor area, used for rendering and for naming where things are."""
 
     name: str
-    x: Vec2 = Field(description="min and max x of the floor area, metres")
-    y: Vec2 = Field(description="min and max y of the floor area, metres")
+    x: bounds.Point2 = Field(description="min and max x of the floor area, metres")
+    y: bounds.Point2 = Field(description="min and max y of the floor area, metres")
     color: Rgba = (0.85, 0.85, 0.8, 1.0)
 
 
 class Wall(_Strict):
     """A straight wall segment from `start` to `end` (leave gaps between segments for doors)."""
 
-    start: Vec2
-    end: Vec2
-    thickness: Positive = 0.1
-    height: Positive = 1.2
+    start: bounds.Point2
+    end: bounds.Point2
+    thickness: bounds.PartExtent = 0.1
+    height: float = Field(default=1.2, ge=bounds.MIN_SIZE_M, le=bounds.WALL_HEIGHT_M)
 
 
 class Location(_Strict):
     """A semantic location: a named point on the navigation graph where the robot can stand."""
 
     name: str
-    x: float
-    y: float
+    x: bounds.Coord
+    y: bounds.Coord
 
 
 class Box(_Strict):
     """A box-shaped part of a piece of furniture; `center` is its centre in world coordinates."""
 
     name: str
-    size: Vec3 = Field(description="full extents x, y, z in metres")
-    center: Vec3
+    size: bounds.PartSize3 = Field(description="full extents x, y, z in metres")
+    center: bounds.Point3
     color: Rgba = (0.55, 0.4, 0.25, 1.0)
 
     @model_validator(mode="after")
@@ -73,7 +75,7 @@ class Furniture(_Strict):
     """Static furniture made of boxes (a shelf's layers, a table's top and legs)."""
 
     name: str
-    parts: list[Box] = Field(min_length=1)
+    parts: list[Box] = Field(min_length=1, max_length=bounds.MAX_PARTS)
 
 
 #: The kinds of articulated furniture: a drawer slides out (a prismatic joint), a cabinet's or a fridge's
@@ -96,14 +98,16 @@ class Container(_Strict):
     name: str
     kind: ContainerKind
     location: str = Field(description="the location the robot stands at to open it and reach inside")
-    center: Vec3 = Field(description="centre of the carcass in world coordinates, metres")
-    size: Vec3 = Field(description="outer extents x, y, z in metres, the closed drawer or door included")
+    center: bounds.Point3 = Field(description="centre of the carcass in world coordinates, metres")
+    size: bounds.ContainerSize = Field(
+        description="outer extents x, y, z in metres, the closed drawer or door included"
+    )
     facing: Facing = Field(description="the side the opening faces, e.g. '-y' for a front towards -y")
     hinge: Literal["left", "right"] = Field(
         default="left", description="the door's hinged side, as seen from the front (cabinet, fridge)"
     )
-    wall: Positive = Field(default=0.02, description="panel thickness, metres")
-    travel: Positive | None = Field(
+    wall: bounds.PartExtent = Field(default=0.02, description="panel thickness, metres")
+    travel: Annotated[float, Field(gt=0)] | None = Field(
         default=None,
         description="how far it opens: metres a drawer slides out (default 0.8 of its depth), or degrees "
         "a door swings (default 90)",
@@ -127,8 +131,10 @@ class PlacePosition(_Strict):
 
     location: str
     name: str = Field(description="the position's name within its location, e.g. 'top' or 'floor'")
-    center: Vec2
-    size: Vec2 = Field(description="extent of the region in x and y, metres (a drawer's: when it is closed)")
+    center: bounds.Point2
+    size: bounds.PartSize2 = Field(
+        description="extent of the region in x and y, metres (a drawer's: when it is closed)"
+    )
     support: str = Field(description="'floor', 'FURNITURE/PART', or a container's name, the surface an object rests on")
 
 
@@ -137,8 +143,8 @@ class ObjectStart(_Strict):
 
     location: str | None = None
     position: str | None = None
-    pose: Vec3 | None = None
-    yaw: float = 0.0
+    pose: bounds.Point3 | None = None
+    yaw: bounds.Angle = 0.0
 
     @model_validator(mode="after")
     def _one_kind(self) -> ObjectStart:
@@ -164,15 +170,18 @@ class SceneObject(_Strict):
 
     name: str
     shape: Literal["box", "cylinder", "urdf"] = "box"
-    size: Vec3 = Field(description="bounding extents x, y, z in metres (for a cylinder: diameter, diameter, height)")
+    size: bounds.ObjectSize = Field(
+        description="bounding extents x, y, z in metres (for a cylinder: diameter, diameter, height)"
+    )
     urdf: str | None = Field(default=None, description="path inside pybullet_data, e.g. objects/mug.urdf")
-    urdf_scale: Positive = 1.0
-    mass: Positive = 0.2
+    urdf_scale: float = Field(default=1.0, ge=bounds.MIN_SCALE, le=bounds.MAX_SCALE)
+    mass: float = Field(default=0.2, ge=bounds.MIN_MASS_KG, le=bounds.MAX_MASS_KG)
     color: Rgba = (0.8, 0.2, 0.2, 1.0)
     graspable: bool = True
     start: ObjectStart
     descriptions: list[Description] = Field(
         default=[],
+        max_length=bounds.MAX_DESCRIPTIONS,
         description="referring expressions a task may name the object by, e.g. 'drinking vessel' for a mug",
     )
 
@@ -198,11 +207,15 @@ class SceneObject(_Strict):
 class Physics(_Strict):
     """Simulation settings."""
 
-    time_step: Positive = 1.0 / 120.0
-    gravity: float = -9.81
-    solver_iterations: int = Field(default=50, ge=1)
-    settle_steps: int = Field(default=120, ge=1, description="most steps a released object may take to rest")
-    rest_speed: Positive = Field(default=0.02, description="m/s under which an object counts as resting")
+    time_step: float = Field(default=1.0 / 120.0, ge=bounds.MIN_TIME_STEP_S, le=bounds.MAX_TIME_STEP_S)
+    gravity: float = Field(default=-9.81, ge=-bounds.GRAVITY, le=bounds.GRAVITY)
+    solver_iterations: int = Field(default=50, ge=1, le=bounds.SOLVER_ITERATIONS)
+    settle_steps: int = Field(
+        default=120, ge=1, le=bounds.SETTLE_STEPS, description="most steps a released object may take to rest"
+    )
+    rest_speed: float = Field(
+        default=0.02, gt=0, le=bounds.REST_SPEED, description="m/s under which an object counts as resting"
+    )
 
 
 class Scene(_Strict):
@@ -212,16 +225,19 @@ class Scene(_Strict):
     robot: str = Field(default="robot/iiwa_mobile.yaml", description="robot description, relative to assets/")
     robot_start: str = Field(description="the location where the robot starts")
     physics: Physics = Physics()
-    rooms: list[Room] = []
-    walls: list[Wall] = []
-    locations: list[Location] = Field(min_length=1)
-    edges: list[tuple[str, str]] = []
-    furniture: list[Furniture] = []
-    containers: list[Container] = []
-    place_positions: list[PlacePosition] = []
-    objects: list[SceneObject] = []
-    location_radius: Positive = Field(
-        default=1.3, description="how far from a location an object may lie and still be seen as 'at' it"
+    rooms: list[Room] = Field(default=[], max_length=bounds.MAX_ROOMS)
+    walls: list[Wall] = Field(default=[], max_length=bounds.MAX_WALLS)
+    locations: list[Location] = Field(min_length=1, max_length=bounds.MAX_LOCATIONS)
+    edges: list[tuple[str, str]] = Field(default=[], max_length=bounds.MAX_EDGES)
+    furniture: list[Furniture] = Field(default=[], max_length=bounds.MAX_FURNITURE)
+    containers: list[Container] = Field(default=[], max_length=bounds.MAX_CONTAINERS)
+    place_positions: list[PlacePosition] = Field(default=[], max_length=bounds.MAX_PLACE_POSITIONS)
+    objects: list[SceneObject] = Field(default=[], max_length=bounds.MAX_OBJECTS)
+    location_radius: float = Field(
+        default=1.3,
+        gt=0,
+        le=bounds.LOCATION_RADIUS_M,
+        description="how far from a location an object may lie and still be seen as 'at' it",
     )
     perturbations: list[Perturbation] = Field(
         default=[], max_length=MAX_PERTURBATIONS, description="what goes wrong in every episode (none by default)"
@@ -332,6 +348,7 @@ class Scene(_Strict):
 
 
 def _unique(what: str, names: list[str]) -> None:
-    dupes = sorted({n for n in names if names.count(n) > 1})
+    counts = Counter(names)
+    dupes = sorted(n for n, k in counts.items() if k > 1)
     if dupes:
         raise ValueError(f"{what}: duplicate names {dupes}")

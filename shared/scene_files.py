@@ -13,19 +13,31 @@ from pathlib import Path
 from robocog.assets import ASSETS_DIR
 from robocog.shared.config_files import load_yaml_model
 from robocog.shared.errors import ConfigError
-from robocog.shared.robot_spec import load_robot, urdf_problem
+from robocog.shared.robot_spec import load_robot, outside_problem, resolve_urdf, shipped_folders, urdf_problem
 from robocog.shared.scene import Scene
+from robocog.shared.scene_bounds import SCENE_FILE_BYTES
 
 
 def load_scene(path: Path) -> Scene:
-    """Load and validate a scene file, and the robot description and URDFs it refers to."""
-    scene = load_yaml_model(path, Scene)
+    """Load and validate a scene file, and the robot description and URDFs it refers to.
+
+    The file is within the bounds of `robocog.shared.scene_bounds` (its size, its counts, every number),
+    and every file it names lies in the scene's own folder, robocog's assets or pybullet_data (links
+    followed): anything else is refused, unread, with a `ConfigError` of one line.
+    """
+    scene = load_yaml_model(path, Scene, max_bytes=SCENE_FILE_BYTES)
+    folders = (path.parent, *shipped_folders())
     robot = scene.robot_file()
+    problem = outside_problem(scene.robot, robot, folders)
+    if problem is not None:
+        raise ConfigError(f"{path}: robot: {problem}")
     if not robot.is_file():
         raise ConfigError(f"{path}: robot: {scene.robot!r}: no such file (robot files are relative to {ASSETS_DIR})")
-    load_robot(robot)
+    load_robot(robot, folders)
     for i, obj in enumerate(scene.objects):
-        problem = urdf_problem(obj.urdf) if obj.urdf is not None else None
+        if obj.urdf is None:
+            continue
+        problem = urdf_problem(obj.urdf) or outside_problem(obj.urdf, resolve_urdf(obj.urdf), folders)
         if problem is not None:
             raise ConfigError(f"{path}: objects[{i}].urdf: {problem}")
     return scene

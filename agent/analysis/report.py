@@ -37,6 +37,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from robocog.agent.analysis.figures import FigureFiles, draw_figures
+from robocog.agent.analysis.markdown_table import cell
 from robocog.agent.analysis.provenance import disagreements
 from robocog.agent.analysis.report_families import families_section
 from robocog.agent.analysis.report_perturbations import (
@@ -79,16 +80,16 @@ def markdown(
     per-family section when `scores` are given, with the `suite` figures drawn for them; the
     `provenance` disagreements first."""
     paper = summary if paper is None else paper
-    parts = [f"# {title}", ""]
+    parts = [f"# {cell(title)}", ""]
     if provenance:
         parts += ["## Provenance: the rows disagree", ""]
-        parts += [f"- {line}" for line in provenance]
+        parts += [f"- {cell(line)}" for line in provenance]
         parts += ["", "Numbers below pool rows that ran on different things; compare them with care.", ""]
     parts += protocol_section(summary)
     parts += errored_section(summary)
     parts += [
         f"{summary.attempts} attempts ({summary.counted} counted, {summary.errored_total} errored); "
-        f"models: {', '.join(summary.models)}; tasks: {', '.join(summary.tasks)}.",
+        f"models: {', '.join(map(cell, summary.models))}; tasks: {', '.join(map(cell, summary.tasks))}.",
         "",
     ]
     if not summary.table:

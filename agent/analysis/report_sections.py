@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from robocog.agent.analysis.confusion import PaperConfusion
 from robocog.agent.analysis.figures import FigureFiles
-from robocog.agent.analysis.markdown_table import cell, md_table, pct
+from robocog.agent.analysis.markdown_table import cell, code, md_table, pct
 from robocog.agent.analysis.stats import PASS_KS, IterationPoint, Summary, TableRow
 from robocog.agent.analysis.tables_csv import CsvFormat
 
@@ -39,7 +39,7 @@ def errored_section(summary: Summary) -> list[str]:
     if not summary.errored:
         return ["No attempt errored: every attempt counts.", ""]
     lines = [
-        [cell(e.model), cell(e.task), str(e.attempts), str(e.errored), f"`{cell(e.first_error)}`"]
+        [cell(e.model), cell(e.task), str(e.attempts), str(e.errored), f"`{code(e.first_error)}`"]
         for e in summary.errored
     ]
     return [

@@ -8,7 +8,10 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from pydantic import ValidationError
+
 from robocog.agent.analysis.taxonomy import annotate
+from robocog.shared.config_files import validation_problems
 from robocog.shared.errors import ConfigError
 from robocog.shared.evaluation import AttemptRow
 from robocog.shared.trace import read_trace
@@ -23,12 +26,35 @@ def read_rows(path: Path) -> list[AttemptRow]:
     for number, line in enumerate(lines, 1):
         try:
             rows.append(AttemptRow.model_validate_json(line))
-        except ValueError as exc:
-            if number == len(lines):  # a crash while the last row was written: that attempt reruns
+        except ValidationError as exc:
+            if number == len(lines) and _torn(line, exc):  # a crash while the last row was written: it reruns
                 print(f"robocog: {path}: dropping a torn last line ({number})", file=sys.stderr)
                 break
-            raise ConfigError(f"{path}: line {number} is not a result row: {exc.__class__.__name__}") from exc
+            if not rows:
+                raise ConfigError(f"{path}: not a results file of robocog eval (line 1: {_reason(exc)})") from None
+            raise ConfigError(f"{path}: line {number} is not a result row ({_reason(exc)})") from None
     return rows
+
+
+def _torn(line: str, exc: ValidationError) -> bool:
+    """Whether `line` is a row cut short: JSON that begins as a row's and ends before it closes."""
+    errors = exc.errors()
+    return (
+        line.lstrip().startswith('{"model"')
+        and len(errors) == 1
+        and errors[0]["type"] == "json_invalid"
+        and "EOF" in str(errors[0]["msg"])
+    )
+
+
+def _reason(exc: ValidationError) -> str:
+    """Why a line is not a row, in one line: not JSON (where), not an object, or the fields it lacks."""
+    errors = exc.errors()
+    if errors and errors[0]["type"] == "json_invalid":
+        return f"not JSON: {errors[0]['msg'].removeprefix('Invalid JSON: ')}"
+    if errors and errors[0]["type"] == "model_type":
+        return "a JSON value that is not an object"
+    return validation_problems(exc)
 
 
 def mend_torn_tail(path: Path) -> None:

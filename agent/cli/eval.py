@@ -8,9 +8,12 @@ import asyncio
 import gc
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from robocog.agent.cli.options import check_server_args, flag_values
+
+if TYPE_CHECKING:
+    from robocog.shared.evaluation import EvalConfig
 
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:
@@ -59,6 +62,20 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         "cluster `ray start` began here); --workers actors each own a robot (needs robocog[ray])",
     )
     return ev
+
+
+def preflight_study(config: EvalConfig, out: Path, *, resume: bool) -> None:
+    """What `run_eval` refuses first, checked before anything is drawn: results already in `out` without
+    `--resume`, a model whose key is missing (`ConfigError`, `ModelServiceError`)."""
+    from robocog.agent.analysis.results_file import read_rows
+    from robocog.agent.client.model import check_credentials, resolve_api_key
+    from robocog.shared.errors import ConfigError
+
+    held = read_rows(out)
+    if held and not resume:
+        raise ConfigError(f"{out} already holds {len(held)} results: use --resume to continue, or another --out")
+    for spec in config.models:
+        check_credentials(spec.model, spec.api_base, resolve_api_key(spec))
 
 
 def main(args: argparse.Namespace) -> int:
@@ -129,6 +146,11 @@ def main(args: argparse.Namespace) -> int:
         print(f"robocog: {origin}: cannot create {out.parent}: {exc.strerror or exc}", file=sys.stderr)
         return 2
     server = command or None  # split above, where it was checked
+    try:  # what would stop the study at once is said before the progress bar is drawn
+        preflight_study(config, out, resume=args.resume)
+    except (ConfigError, ModelServiceError) as exc:
+        print(f"robocog: {exc}", file=sys.stderr)
+        return 2
     # Imported once the config holds (the MCP client takes seconds to import).
     from rich.progress import (
         BarColumn,
@@ -179,6 +201,8 @@ def main(args: argparse.Namespace) -> int:
                 )
             )
         except (ConfigError, ModelServiceError, ServerConnectionError) as exc:
+            bar.live.transient = True  # the bar goes with the study: no empty bar after the error
+            bar.stop()
             print(f"robocog: {exc}", file=sys.stderr)
             return 2
     print(f"{len(rows)} attempts in {out}")

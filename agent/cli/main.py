@@ -16,6 +16,7 @@ from collections.abc import Sequence
 from types import ModuleType
 
 from robocog.agent.cli.options import EPILOG
+from robocog.shared.cli_parser import OneLineParser
 from robocog.shared.errors import ConfigError, ServerConnectionError
 
 #: The commands, in the order `robocog --help` lists them: name -> module (robocog.agent.cli.NAME).
@@ -41,7 +42,7 @@ def command_module(name: str) -> ModuleType:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="robocog",
         description="Drive the robocog household robot with any model, over MCP.",
         epilog=EPILOG,

@@ -75,8 +75,16 @@ def check_task_words(words: Iterable[str], where: str = "") -> None:
 def check_model(model: str, api_base: str | None, api_key: str | None = None) -> None:
     """`ConfigError` when LiteLLM cannot tell which provider serves `model` (a typo such as gpt4o),
     unless `api_base` names an OpenAI-compatible server, or when a cloud model's key is missing.
-    Imports LiteLLM (seconds) except for the offline models."""
+    Answered from LiteLLM's cost map without importing LiteLLM where it can be (`model_names`), else
+    imports LiteLLM (seconds)."""
     if is_offline(model) or api_base:
+        return
+    from robocog.agent.client.model_names import quick_verdict, unknown_model
+
+    verdict, problem = quick_verdict(model, api_key)  # most answers, without importing LiteLLM (seconds)
+    if problem:
+        raise ConfigError(problem)
+    if verdict == "ok":
         return
     from robocog.agent.client.model import check_credentials, configured_litellm
     from robocog.shared.errors import ModelServiceError
@@ -86,12 +94,7 @@ def check_model(model: str, api_base: str | None, api_key: str | None = None) ->
         litellm.get_llm_provider(model)
     except Exception:
         names = [str(n) for n in getattr(litellm, "model_cost", {}) if "/" not in str(n)]
-        closest = difflib.get_close_matches(model, names, n=1, cutoff=0.6)
-        hint = f"; did you mean {closest[0]}?" if closest else ""
-        raise ConfigError(
-            f"--model {model}: LiteLLM does not know this model or its provider{hint} (name the provider, "
-            "e.g. openai/gpt-4o, ollama/qwen3, or give --api-base for an OpenAI-compatible server)"
-        ) from None
+        raise ConfigError(unknown_model(model, names)) from None
     try:
         check_credentials(model, api_base, api_key)
     except ModelServiceError as exc:

@@ -67,6 +67,7 @@ def add_session_parser(sub: Any, name: str, help: str) -> argparse.ArgumentParse
 def start(args: argparse.Namespace, tasks: Sequence[str] | None) -> int:
     """What `run` and `chat` do: check the options (and the tasks' words), say what the run uses,
     import LiteLLM while the server starts, then run `tasks` (None: those typed at the prompt)."""
+    check_model(args.model, args.api_base, args.api_key)  # first: a wrong model is the likeliest mistake
     check_options(args)
     if tasks is not None:
         check_task_words(tasks)

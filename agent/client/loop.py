@@ -24,9 +24,9 @@ from robocog.agent.client.model import IMAGE_OMITTED, assistant_message, complet
 from robocog.agent.client.settings import AgentSettings
 from robocog.agent.client.trace_sinks import Trace
 from robocog.agent.study_protocols import DESCRIPTION_URI, PROTOCOLS, EvalProtocol
-from robocog.shared.errors import ModelServiceError, ServerConnectionError
+from robocog.shared.errors import MemoryStorageError, ModelServiceError, ServerConnectionError
 from robocog.shared.perturbations import PERTURBATION_META_KEY, PerturbationEvent
-from robocog.shared.protocol import FLEET_FULL, FURNITURE_TOOLS, MODEL_META_KEY
+from robocog.shared.protocol import FLEET_FULL, FURNITURE_TOOLS, MEMORY_FAILED, MODEL_META_KEY
 from robocog.shared.provenance import function_definition, offered
 from robocog.shared.trace import (
     ModelTurn,
@@ -332,6 +332,8 @@ async def _execute(
     )
     for happened in perturbations:
         trace.emit(Perturbed(t=trace.now(), invocation=invocation, id=call["id"], event=happened))
+    if is_error and not rejected and MEMORY_FAILED in content:  # its storage failed (disk full, read-only)
+        raise MemoryStorageError(f"the robot server failed on {name}: {content}")  # no retry would help
     if name == "end_task" and arguments is not None and not is_error:
         return (arguments.get("status") == "success", str(arguments.get("summary", ""))), content, pictures
     return None, content, pictures

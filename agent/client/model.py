@@ -34,6 +34,7 @@ from typing import TYPE_CHECKING, Any
 
 from robocog.agent.client.litellm_tuning import robocog_call, tune
 from robocog.agent.client.model_errors import classify, missing_keys
+from robocog.agent.client.model_names import missing_key, quick_verdict
 from robocog.agent.policies.offline import OfflineModelError, is_offline, offline_turn
 from robocog.shared.errors import ModelServiceError
 
@@ -102,13 +103,18 @@ def check_credentials(model: str, api_base: str | None, api_key: str | None = No
 
     Nothing to check when a key is given, or a server is (`api_base`: a local server needs no key,
     and one that does gets the key given or the placeholder)."""
-    if api_key or api_base or is_offline(model) or _route(model)[1] in KEYLESS_ROUTES:
+    if api_key or api_base or is_offline(model):
+        return
+    verdict, problem = quick_verdict(model)  # most answers, without importing LiteLLM (seconds)
+    if verdict == "no_key":
+        raise ModelServiceError(problem)
+    if verdict != "ask_litellm":  # taken, or not known (then the call itself says so)
+        return
+    if _route(model)[1] in KEYLESS_ROUTES:
         return
     missing = missing_keys(model)
     if missing:
-        raise ModelServiceError(
-            f"model {model!r} needs {', '.join(missing)} set in the environment (or give --api-key)"
-        )
+        raise ModelServiceError(missing_key(model, missing))
 
 
 def resolve_api_key(spec: ModelSpec) -> str | None:

@@ -46,6 +46,7 @@ from robocog.shared import __version__
 from robocog.shared.controls import EvalControls, mcp_call
 from robocog.shared.errors import ConfigError, ServerConnectionError
 from robocog.shared.evaluation import AttemptRow, EvalConfig, ModelSpec, success
+from robocog.shared.protocol import MEMORY_FAILED
 from robocog.shared.provenance import Provenance, sha256_of, text_sha256, tools_sha256
 from robocog.shared.trace import Verdict
 
@@ -184,6 +185,10 @@ class Runner:
                     row = early or await attempt(task_id, record=record)
                 except ServerBroke as broke:
                     await self.write(broke.row)
+                    if MEMORY_FAILED in (broke.row.error or ""):  # its storage failed: a new server helps not
+                        later = (cfg.memory_iterations - iteration - 1) * len(cfg.tasks)
+                        self.progress.advance(len(cfg.tasks) - index - 1 + later)
+                        return None
                     self.progress.advance(len(cfg.tasks) - index - 1)
                     return iteration + 1
                 except Exception as exc:  # begin_task (or a suite's set-up) found the server gone
@@ -299,7 +304,9 @@ class Runner:
                 conversation=conversation,
                 furniture=furniture,  # asked once, for the provenance and the episode alike
             )
-            checked = await self.controls(robot).check_task(task_id, record=record)
+            # A memory that failed to store the report cannot store its verdict either: the attempt errs.
+            stored = not (result.error and MEMORY_FAILED in result.error)
+            checked = await self.controls(robot).check_task(task_id, record=record and stored)
         except Exception as exc:  # the server or the transport died: this attempt fails, not the study
             trace.close()
             raise ServerBroke(

@@ -19,6 +19,9 @@ each namespace cost a unit 7 ms more.
 
 from __future__ import annotations
 
+import errno
+import re
+import sqlite3
 import threading
 import uuid
 from collections.abc import Iterable, Mapping, Sequence
@@ -33,12 +36,14 @@ from chromadb.api import ClientAPI
 from chromadb.api.models.Collection import Collection
 from chromadb.api.shared_system_client import SharedSystemClient
 from chromadb.api.types import Documents, EmbeddingFunction
+from chromadb.errors import ChromaError
 
 from robocog.server.memory.chroma import EMBEDDED, client_settings, index_directories, tree_size
 from robocog.server.memory.embedding import MiniLMEmbeddingFunction
 from robocog.shared.limits import DESCRIPTION_CHARS, EPISODE_ID_CHARS, NAME_CHARS, SUMMARY_CHARS, truncate
 from robocog.shared.memory import MemoryHit, MemoryRecord
 from robocog.shared.memory_names import collection_name, default_data_dir, parse_chroma_url
+from robocog.shared.protocol import MEMORY_FAILED
 from robocog.shared.results import Status
 
 #: Distances closer than this count as a tie (broken newest first).
@@ -47,6 +52,27 @@ _WRITE_BATCH = 1024
 _STATUSES: tuple[Status, ...] = ("success", "failure")
 #: Namespace of the record ids derived from episode ids.
 _EPISODE_IDS = uuid.UUID("4f0c3c56-2f55-4d0e-9a53-6f1f4b1f7a11")
+
+
+#: The errno values of an OSError that are the memory's storage failing (not a caller's mistake).
+_STORAGE_ERRNOS = frozenset({errno.ENOSPC, errno.EROFS, errno.EDQUOT, errno.EIO, errno.ENOENT, errno.EACCES})
+#: SQLite's words after Chroma's prefixes: "... (code: 13) database or disk is full".
+_SQLITE_REASON = re.compile(r"\(code: \d+\)\s*(.+)$")
+
+
+def storage_problem(exc: BaseException) -> str | None:
+    """One line saying why the memory's storage failed (`MEMORY_FAILED`: the reason), when `exc` is such a
+    failure: Chroma's error (a full disk, a read-only or removed database, an unreachable Chroma server),
+    SQLite's, or an OSError of the file system (full, read-only); else None."""
+    if isinstance(exc, OSError) and exc.errno in _STORAGE_ERRNOS:
+        reason = exc.strerror or str(exc)
+    elif isinstance(exc, ChromaError | sqlite3.Error):
+        text = " ".join(str(exc).split()) or type(exc).__name__
+        match = _SQLITE_REASON.search(text)
+        reason = match.group(1) if match else text
+    else:
+        return None
+    return f"{MEMORY_FAILED}: {reason}"
 
 
 def record_id(episode: str | None) -> str:

@@ -17,7 +17,7 @@ from typing import Literal
 import pybullet
 
 from robocog.server.world import truth
-from robocog.server.world.sim import Grasp, Position, Sim
+from robocog.server.world.sim import ActionLimit, Grasp, Position, Sim
 from robocog.shared.results import ObjectPlacement
 
 Vec3 = tuple[float, float, float]
@@ -44,17 +44,33 @@ class Reach:
 # --- base ----------------------------------------------------------------------------------------
 
 
+def drive_steps(sim: Sim, path: list[str]) -> int:
+    """The simulated steps driving along `path` takes."""
+    step_len = sim.robot_spec.base_speed * sim.scene.physics.time_step
+    return sum(max(1, math.ceil(sim.map.distance(a, b) / step_len)) for a, b in itertools.pairwise(path))
+
+
 def drive(sim: Sim, path: list[str], progress: ProgressFn | None = None) -> float:
-    """Drive the base along `path` (location names), one segment after another; the metres driven."""
+    """Drive the base along `path` (location names), one segment after another; the metres driven.
+
+    A drive the running action cannot pay for in steps is refused before the robot moves; one stopped
+    on the way (`ActionLimit`: past its wall time, or the server shutting down) leaves the robot at the
+    last location it reached, where it only ever stands."""
     robot = sim.robot
     step_len = sim.robot_spec.base_speed * sim.scene.physics.time_step
+    metres = sum(sim.map.distance(a, b) for a, b in itertools.pairwise(path))
+    sim.budget.afford(drive_steps(sim, path), f"driving {metres:,.1f} m from {path[0]} to {path[-1]}")
     driven = 0.0
     for i, (a, b) in enumerate(itertools.pairwise(path)):
         (ax, ay), (bx, by) = sim.map.points[a], sim.map.points[b]
         n = max(1, math.ceil(math.hypot(bx - ax, by - ay) / step_len))
-        for k in range(1, n + 1):
-            robot.set_base(ax + (bx - ax) * k / n, ay + (by - ay) * k / n, robot.yaw)
-            sim.step()
+        try:
+            for k in range(1, n + 1):
+                robot.set_base(ax + (bx - ax) * k / n, ay + (by - ay) * k / n, robot.yaw)
+                sim.step()
+        except ActionLimit:
+            robot.set_base(ax, ay, robot.yaw)
+            raise
         driven += math.hypot(bx - ax, by - ay)
         if progress is not None:
             progress(i + 1, len(path) - 1, f"reached {b}")

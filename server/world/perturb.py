@@ -185,6 +185,8 @@ class Perturber:
         behind = self.set_off(sim, path)
         stop = next((i for i, (a, b) in enumerate(itertools.pairwise(path)) if self.blocked(a, b)), None)
         route = path if stop is None else path[: stop + 1]
+        metres = sum(sim.map.distance(a, b) for a, b in itertools.pairwise(route))
+        sim.budget.afford(actions.drive_steps(sim, route), f"driving {metres:,.1f} m from {route[0]} to {route[-1]}")
         slip = self._slip_due(sim) if len(route) > 1 else None  # a drive blocked at once is no drive
         total = sum(sim.map.distance(a, b) for a, b in itertools.pairwise(route))
         driven = 0.0

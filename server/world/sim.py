@@ -7,9 +7,13 @@ episode -> builder -> Sim.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import math
-from collections.abc import Callable, Iterable
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 
 import pybullet
@@ -18,8 +22,66 @@ from pybullet_utils.bullet_client import BulletClient
 from robocog.server.world.navigation import SemanticMap
 from robocog.server.world.robot import Robot
 from robocog.shared.containers import Geometry
+from robocog.shared.errors import WorldError
 from robocog.shared.robot_spec import RobotSpec
 from robocog.shared.scene import PlacePosition, Scene, SceneObject
+from robocog.shared.scene_bounds import ACTION_STEPS, ACTION_WALL_S
+
+#: Set when the process is shutting down (its client has gone): every action stops at its next check.
+SHUTTING_DOWN = threading.Event()
+#: Steps between two looks at the clock and at `SHUTTING_DOWN` during an action.
+_CHECK_EVERY = 64
+
+
+class ActionLimit(WorldError):
+    """A robot action could not finish within its bounds (simulated steps, wall time) or was stopped
+    because the server is shutting down."""
+
+
+class Budget:
+    """What one robot action may still spend: simulated steps and wall time (`ACTION_STEPS`,
+    `ACTION_WALL_S`). Outside an action (building a world) nothing is counted."""
+
+    def __init__(self) -> None:
+        self.used = 0
+        self.steps = sys.maxsize
+        self.check_at = sys.maxsize
+        self.deadline = math.inf
+        self.wall_s = math.inf
+
+    @contextlib.contextmanager
+    def action(self, steps: int = ACTION_STEPS, wall_s: float = ACTION_WALL_S) -> Iterator[None]:
+        """Bound what runs inside to `steps` simulated steps and `wall_s` seconds (`ActionLimit` past either)."""
+        outer = (self.used, self.steps, self.check_at, self.deadline, self.wall_s)
+        self.used, self.steps, self.wall_s = 0, steps, wall_s
+        self.deadline = time.monotonic() + wall_s
+        self.check_at = min(_CHECK_EVERY, steps + 1)
+        try:
+            yield
+        finally:
+            self.used, self.steps, self.check_at, self.deadline, self.wall_s = outer
+
+    def left(self) -> int:
+        """Steps the running action may still take."""
+        return max(0, self.steps - self.used)
+
+    def afford(self, steps: int, what: str) -> None:
+        """Refuse, before anything moves, a motion of `steps` steps that the action cannot pay for."""
+        if steps > self.left():
+            raise ActionLimit(
+                f"{what} would take {steps:,} simulated steps, more than the {self.steps:,} one action may take; "
+                "nothing moved"
+            )
+
+    def check(self) -> None:
+        """Called every few steps: raise `ActionLimit` past a bound, or when the server is shutting down."""
+        if self.used > self.steps:
+            raise ActionLimit(f"the action took more than {self.steps:,} simulated steps and was stopped")
+        if time.monotonic() > self.deadline:
+            raise ActionLimit(f"the action took more than {self.wall_s:g} s and was stopped")
+        if SHUTTING_DOWN.is_set():
+            raise ActionLimit("the server is shutting down (its client has gone): the action was stopped")
+        self.check_at = min(self.used + _CHECK_EVERY, self.steps + 1)
 
 
 @dataclass(frozen=True)
@@ -87,6 +149,7 @@ class Sim:
     grasp: Grasp | None = None
     steps: int = 0
     containers: dict[str, ContainerBody] = field(default_factory=dict)  # name -> body, in scene order
+    budget: Budget = field(default_factory=Budget)  # the running action's (the world's, across resets)
     _step_simulation: Callable[[], None] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -96,6 +159,10 @@ class Sim:
     def step(self) -> None:
         self._step_simulation()
         self.steps += 1
+        budget = self.budget
+        budget.used += 1
+        if budget.used >= budget.check_at:
+            budget.check()
 
     def speed(self, body: int) -> float:
         lin, _ = self.client.getBaseVelocity(body)

@@ -22,18 +22,19 @@ from robocog.server.world.articulation import Operation
 from robocog.server.world.builder import connect
 from robocog.server.world.navigation import SemanticMap
 from robocog.server.world.perturb import Perturber, Trip
-from robocog.server.world.sim import Sim
+from robocog.server.world.sim import ActionLimit, Budget, Sim
 from robocog.shared.appearance import attributes
 from robocog.shared.errors import WorldError
 from robocog.shared.perturbations import Perturbation, PerturbationEvent
 from robocog.shared.results import FurnitureState, ObjectPlacement, Observe, WorldState
 from robocog.shared.robot_spec import load_robot
 from robocog.shared.scene import Scene, SceneObject
+from robocog.shared.scene_bounds import ACTION_STEPS, ACTION_WALL_S
 from robocog.shared.scene_files import load_scene, scene_path
 
 DEFAULT_SCENE = ASSETS_DIR / "scenes" / "household.yaml"
 
-__all__ = ["DEFAULT_SCENE", "Operation", "ProgressFn", "Reach", "Trip", "World"]
+__all__ = ["DEFAULT_SCENE", "ActionLimit", "Operation", "ProgressFn", "Reach", "Trip", "World"]
 
 
 class World:
@@ -53,6 +54,8 @@ class World:
         self.robot_spec = load_robot(scene.robot_file())
         episode.check_options(options)
         self.client = connect(gui)
+        #: What the running action may still spend (steps, wall time): `action()` bounds one.
+        self.budget = Budget()
         self.seed = seed
         self.np_random = np.random.default_rng(seed)
         self.sim: Sim
@@ -88,8 +91,16 @@ class World:
             self.seed = seed
             self.np_random = np.random.default_rng(seed)
         self.sim = episode.reset(self.client, self.scene, self.robot_spec, self.np_random, options)
+        self.sim.budget = self.budget
         self.perturber = Perturber.arm(chosen, self.seed)
         return self.state()
+
+    def action(
+        self, steps: int = ACTION_STEPS, wall_s: float = ACTION_WALL_S
+    ) -> contextlib.AbstractContextManager[None]:
+        """Bound what runs inside (one robot action, a tool call) to `steps` simulated steps and `wall_s`
+        seconds: past either, or when the server shuts down, it stops with `ActionLimit` (a WorldError)."""
+        return self.budget.action(steps, wall_s)
 
     def close(self) -> None:
         """Disconnect this world's PyBullet client."""

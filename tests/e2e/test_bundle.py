@@ -129,7 +129,7 @@ def test_bundle_refuses_bad_input_in_one_line(tmp_path: Path, capsys: pytest.Cap
     garbage.write_text('{"model": "x"}\nnot json\n{"model": "y"}\n')
     assert main(["view", str(garbage), "--bundle", str(tmp_path / "b")]) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "line 1 is not a result row" in err
+    assert err.count("\n") == 1 and "not a results file of robocog eval (line 1: " in err
     busy = tmp_path / "busy"
     busy.mkdir()
     (busy / "notes.txt").write_text("mine")

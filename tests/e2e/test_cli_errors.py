@@ -8,6 +8,7 @@ traceback. Resuming a results file whose last line a crash tore is checked here 
 from __future__ import annotations
 
 import copy
+import os
 import shutil
 import subprocess
 import sys
@@ -161,7 +162,21 @@ def test_report_of_a_broken_results_file_prints_one_line(tmp_path: Path) -> None
     results = tmp_path / "results.jsonl"
     results.write_text('{"model": "x"}\n{"model": "y"}\n', encoding="utf-8")
     line = one_line_error("robocog", "report", results, "--out", tmp_path / "report")
-    assert line == f"robocog: {results}: line 1 is not a result row: ValidationError"
+    assert line == (
+        f"robocog: {results}: not a results file of robocog eval (line 1: trial: Field required; "
+        "memory_iteration: Field required; task: Field required; and 15 more)"
+    )
+    text = tmp_path / "notes.txt"  # a file that is not a results file at all: never "a torn last line"
+    text.write_text("hello world\n", encoding="utf-8")
+    line = one_line_error("robocog", "report", text, "--out", tmp_path / "report")
+    assert (
+        line
+        == f"robocog: {text}: not a results file of robocog eval (line 1: not JSON: expected value at line 1 column 1)"
+    )
+    rows = tmp_path / "rows.jsonl"  # a results file with a foreign line in the middle
+    rows.write_text(row(0).model_dump_json() + "\n[1, 2]\n" + row(1).model_dump_json() + "\n", encoding="utf-8")
+    line = one_line_error("robocog", "report", rows, "--out", tmp_path / "report")
+    assert line == f"robocog: {rows}: line 2 is not a result row (a JSON value that is not an object)"
 
 
 @pytest.mark.parametrize(
@@ -250,3 +265,50 @@ def test_a_whole_last_row_without_its_newline_is_kept(tmp_path: Path) -> None:
     mend_torn_tail(out)
     assert out.read_text(encoding="utf-8") == row(0).model_dump_json() + "\n"
     assert read_rows(out) == [row(0)]
+
+
+def test_eval_into_a_file_that_holds_results_is_one_line_and_draws_no_bar(tmp_path: Path) -> None:
+    path = study(tmp_path, GOOD_STUDY)
+    (tmp_path / "results.jsonl").write_text(row(0).model_dump_json() + "\n", encoding="utf-8")
+    done = subprocess.run(
+        [script("robocog"), "eval", str(path)], capture_output=True, text=True, timeout=120, stdin=subprocess.DEVNULL
+    )
+    assert done.returncode == 2, done.stderr
+    expected = (
+        f"robocog: {tmp_path / 'results.jsonl'} already holds 1 results: use --resume to continue, or another --out"
+    )
+    assert done.stderr.splitlines() == [expected]
+    assert done.stdout == ""  # no progress bar, empty or not
+
+
+def test_eval_with_a_model_whose_key_is_missing_draws_no_bar(tmp_path: Path) -> None:
+    path = study(tmp_path, GOOD_STUDY.replace("scripted/planner", "gpt-4o"))
+    env = {k: v for k, v in os.environ.items() if k != "OPENAI_API_KEY"}
+    done = subprocess.run([script("robocog"), "eval", str(path)], capture_output=True, text=True, timeout=120, env=env)
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.splitlines() == [
+        "robocog: model 'gpt-4o' needs OPENAI_API_KEY set in the environment (or give --api-key)"
+    ]
+    assert done.stdout == ""
+
+
+@pytest.mark.parametrize(
+    ("program", "args", "expected"),
+    [
+        (
+            "robocog-server",
+            ["--observe", "bogus"],
+            "robocog-server: error: argument --observe: invalid choice: 'bogus' (choose from 'location', 'room', "
+            "'house'); see robocog-server --help",
+        ),
+        ("robocog", ["run"], "robocog run: error: the following arguments are required: TASK; see robocog run --help"),
+        (
+            "robocog",
+            ["eval", "s.yaml", "--bogus"],
+            "robocog: error: unrecognized arguments: --bogus; see robocog --help",
+        ),
+    ],
+)
+def test_a_usage_error_is_one_line_without_the_usage_block(program: str, args: list[str], expected: str) -> None:
+    done = subprocess.run([script(program), *args], capture_output=True, text=True, timeout=120)
+    assert (done.returncode, done.stderr.splitlines(), done.stdout) == (2, [expected], "")

@@ -225,7 +225,7 @@ def test_bad_input_gets_one_line_and_exit_2(
     garbage.write_text("not json\n{}\n")
     cases = [
         (["leaderboard", str(tmp_path / "missing.jsonl"), "--out", out], "missing.jsonl: no such file"),
-        (["leaderboard", str(garbage), "--out", out], "garbage.jsonl: line 1 is not a result row"),
+        (["leaderboard", str(garbage), "--out", out], "garbage.jsonl: not a results file of robocog eval (line 1"),
         (["leaderboard", str(studies["paper"]), str(studies["paper"]), "--out", out], "hold the same attempts"),
         (["submit", "prepare", str(tmp_path / "missing.jsonl"), "--out", out], "no such results file"),
         (["submit", "validate", str(garbage)], "not JSON"),

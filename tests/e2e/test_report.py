@@ -279,3 +279,24 @@ def test_report_warns_when_the_rows_of_a_file_disagree_on_their_provenance(
     assert main(["report", str(agreeing), "--out", str(tmp_path / "out2")]) == 0
     assert capsys.readouterr().err == ""
     assert "Provenance" not in (tmp_path / "out2" / "report.md").read_text()
+
+
+HOSTILE_LABELS = ("<script>alert(1)</script>", "[click](javascript:alert(1))", "<img src=x onerror=alert(1)>", "a|b")
+
+
+@pytest.mark.parametrize("label", HOSTILE_LABELS)
+def test_a_model_label_reaches_report_md_as_words_never_as_html_or_a_link(
+    rows: list[AttemptRow], tmp_path: Path, label: str
+) -> None:
+    """report.md is read by any Markdown renderer, some of which run raw HTML: a label (anyone's words)
+    is escaped, so rendered with HTML allowed it is still only text."""
+    from markdown_it import MarkdownIt
+
+    hostile = [r.model_copy(update={"model": label}) for r in rows]
+    text = render(hostile, tmp_path / "r", title="hostile").read_text(encoding="utf-8")
+    html = MarkdownIt("commonmark", {"html": True}).enable("table").render(text)
+    for bad in ("<script", "<img src=x", 'href="javascript:'):  # tags and links, not the words
+        assert bad not in html.lower(), (label, bad)
+    assert label.replace("|", "\\|") not in text or "|" in label  # never verbatim (the bar is escaped)
+    visible = MarkdownIt("commonmark", {"html": False}).enable("table").render(text)
+    assert label.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;") in visible  # shown as written

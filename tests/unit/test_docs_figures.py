@@ -36,7 +36,7 @@ def test_a_page_gets_the_recorded_value_and_an_unknown_figure_fails_the_build(
     page = "T1 takes [[fig:startup.run_t1_s]] s; readers [[fig:trust.readers]].\n\n<!-- figures:all -->"
     out = hook.on_page_markdown(page)
     assert out.startswith("T1 takes 3.2104 s; readers [16, 284].")
-    assert "| `startup.help_s` | 0.1 |" in out and "### `trust`" in out
+    assert "    | `startup.help_s` | 0.1 |" in out and '??? note "`trust`: 1 figures"' in out  # folded per bench
     with pytest.raises(KeyError, match="no such figure"):
         hook.on_page_markdown("[[fig:startup.nothing]]")
 

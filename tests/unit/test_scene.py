@@ -278,9 +278,11 @@ def test_a_directory_is_a_scene_error(tmp_path: Path) -> None:
 
 def test_model_validator_errors_name_their_field(tmp_path: Path, household: dict[str, Any]) -> None:
     data = copy.deepcopy(household)
-    data["furniture"][1]["parts"][0]["size"] = [0.5, 0.0, 0.1]
+    data["objects"][0]["urdf"] = "objects/mug.urdf"
     path = write_scene(tmp_path, data)
-    assert scene_error(path) == f"{path}: furniture[1].parts[0].size: must be positive in x, y and z"
+    assert scene_error(path) == (
+        f"{path}: objects[0].urdf: shape 'urdf' needs a urdf path, and a urdf path needs shape 'urdf'"
+    )
     data = copy.deepcopy(household)
     data["objects"][0]["start"] = {"location": "Front Door"}
     path = write_scene(tmp_path, data)
