@@ -8,8 +8,11 @@ What `complete()` guarantees, whatever the provider:
   only retrier. Authentication, permission and bad-request errors are never retried; a rate limit
   waits what the provider's `Retry-After` says (capped), else backs off with jitter; server errors,
   timeouts and connection errors back off and try again.
+- A server error is retried only while it may be transient: the same status and body twice (a
+  template that cannot render the history answers so every time) ends the calls at the second.
 - Every failure is a `ModelServiceError` whose message is one line carrying the provider's own
   words: "anthropic/claude-sonnet-4-20250514 answered 401 (authentication): invalid x-api-key".
+- What local servers need of a request is adapted here, in `sendable_request` (see there).
 - With `api_base` and no key at all, a placeholder key is sent, so keyless local servers
   (llama.cpp, vLLM, LM Studio) work.
 - The cost of a turn comes from LiteLLM's local cost map when the model is in it, else it is None:
@@ -249,7 +252,10 @@ async def complete(settings: AgentSettings, messages: list[dict[str, Any]], tool
         return await _offline(settings, messages)
     litellm = configured_litellm()
     kwargs = _call_arguments(settings)
+    messages, extra = sendable_request(settings.model, messages, tools)
+    kwargs.update(extra)
     priced = _priced(settings.model)
+    previous: str | None = None  # the last failure, when a repeat of it would show it deterministic
     for attempt in range(settings.retries + 1):
         try:
             with robocog_call(litellm, priced=priced, kwargs=kwargs):
@@ -264,9 +270,12 @@ async def complete(settings: AgentSettings, messages: list[dict[str, Any]], tool
                 )
         except Exception as exc:
             failure = classify(exc, settings)
+            tries = f" (after {attempt + 1} attempts)" if attempt else ""
+            if failure.retry and failure.final_if_repeated and failure.message == previous:
+                raise ModelServiceError(f"{failure.message} (the same answer twice: not retried)") from exc
             if not failure.retry or attempt == settings.retries:
-                tries = f" (after {attempt + 1} attempts)" if attempt else ""
                 raise ModelServiceError(failure.message + tries) from exc
+            previous = failure.message if failure.final_if_repeated else None
             await asyncio.sleep(failure.wait(attempt, settings.backoff_s))
             continue
         hidden = getattr(response, "_hidden_params", None)
@@ -274,6 +283,26 @@ async def complete(settings: AgentSettings, messages: list[dict[str, Any]], tool
             hidden["response_cost"] = None  # not in the cost map: unknown, not free
         return response
     raise AssertionError("unreachable")
+
+
+def sendable_request(
+    model: str, messages: list[dict[str, Any]], tools: list[dict[str, Any]]
+) -> tuple[list[dict[str, Any]], dict[str, Any]]:
+    """The messages and the extra arguments to send `model`, as every server takes them; the one
+    place where what local servers need of a request is adapted (LiteLLM translates the rest for
+    each provider it knows):
+
+    - `tool_choice: "auto"` whenever tools are offered, where the provider takes it. It is OpenAI's
+      own default, but llama.cpp's servers drop the tools from a request without it (llama-cpp-python
+      with `chatml-function-calling`): the model then answers in prose and seems merely quiet.
+    - An assistant message carries `content: ""`, never `null`: a chat template that reads
+      `message.content` (llama.cpp's, vLLM's Jinja templates) fails on null with HTTP 500 on every
+      later call. LiteLLM leaves an empty text out for Anthropic, and Ollama takes it.
+    """
+    sent = [{**m, "content": ""} if m.get("role") == "assistant" and m.get("content") is None else m for m in messages]
+    supported = _supported(model)
+    extra = {"tool_choice": "auto"} if tools and (supported is None or "tool_choice" in supported) else {}
+    return sent, extra
 
 
 async def _offline(settings: AgentSettings, messages: list[dict[str, Any]]) -> Any:
@@ -329,6 +358,13 @@ def assistant_message(response: Any) -> dict[str, Any]:
             for i, c in enumerate(calls)
         ]
     return out
+
+
+def finish_reason(response: Any) -> str | None:
+    """Why the model stopped writing its turn, as the provider said: "stop", "tool_calls", "length"
+    (cut at the token limit), ...; None when it said nothing."""
+    reason = getattr(response.choices[0], "finish_reason", None)
+    return str(reason) if reason else None
 
 
 def usage(response: Any) -> tuple[int, int, float | None]:
