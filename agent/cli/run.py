@@ -189,6 +189,8 @@ async def run_tasks(args: argparse.Namespace, tasks: Sequence[str] | None, loade
                 believed = {True: "success", False: "failure", None: "never ended"}[result.believed_success]
                 print(f"{task_id or prompt}: believed {believed}, ground truth {truth}, {result.tool_calls} tool calls")
             if result.text_tool_calls:
+                from robocog.agent.client.slips import text_calls_notice
+
                 print(f"robocog: {text_calls_notice(settings.model, result.text_tool_calls)}", file=sys.stderr)
             if result.error:
                 print(f"robocog: {result.error}", file=sys.stderr)
@@ -196,15 +198,6 @@ async def run_tasks(args: argparse.Namespace, tasks: Sequence[str] | None, loade
         if getattr(args, "view", None):
             await keep_viewing(f"http://127.0.0.1:{args.view}/")
     return 0 if ok else 1
-
-
-def text_calls_notice(model: str, count: int) -> str:
-    """The one line that says a model wrote tool calls as text (`robocog.agent.client.slips`)."""
-    calls = "1 tool call" if count == 1 else f"{count} tool calls"
-    return (
-        f"{model} wrote {calls} as text, not run; the server may not parse tool calls "
-        "(docs/models.md, 'When a local model writes its tool calls as text')"
-    )
 
 
 #: How long `robocog run --view` waits for the viewer's page to answer before it says so.

@@ -64,6 +64,15 @@ def text_tool_calls(content: str | None, tools: Iterable[str]) -> int:
     return found + sum(1 for obj in _json_objects(rest) if _names_a_tool(obj, names))
 
 
+def text_calls_notice(model: str, count: int) -> str:
+    """The one line that says a model wrote tool calls as text (`robocog run`, `robocog eval`)."""
+    calls = "1 tool call" if count == 1 else f"{count} tool calls"
+    return (
+        f"{model} wrote {calls} as text, not run; the server may not parse tool calls "
+        "(docs/models.md, 'When a local model writes its tool calls as text')"
+    )
+
+
 def _names_a_tool(obj: Any, names: set[str]) -> bool:
     if not isinstance(obj, dict):
         return False
