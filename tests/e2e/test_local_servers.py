@@ -18,8 +18,10 @@ import pytest
 
 from robocog.agent.analysis.taxonomy import classify, slips
 from robocog.agent.client.connection import Robot
+from robocog.agent.client.model import LOCAL_MAX_LENGTH, sendable_request
 from robocog.agent.client.settings import AgentSettings
 from robocog.agent.client.trace_sinks import Trace
+from robocog.shared.provenance import function_definition
 from robocog.shared.trace import ModelTurn, ToolCall, ToolResult
 from tests.e2e.model_route_fixtures import anyio_backend_fixture, fake_fixture, fresh_fixture, robot_fixture  # noqa: F401
 from tests.e2e.model_routes import END, KEY_VARIABLES, ROUTES, episode
@@ -38,8 +40,9 @@ def _settings(fake: FakeLLM, model: str = LOCAL, **more: object) -> AgentSetting
 
 
 async def test_t1_through_a_llama_cpp_server_reaches_the_robot(robot: Robot, fake: FakeLLM) -> None:
-    # The server drops tools sent without tool_choice and fails on content: null: the planner behind
-    # it does T1 only if every request names tool_choice and no assistant message carries null.
+    # The server drops tools sent without tool_choice, fails on content: null and on a grammar for a
+    # maxLength of 2,000: the planner behind it does T1 only if every request names tool_choice, no
+    # assistant message carries null and no text argument is sent a bound that long.
     fake.script = llama_cpp(planner_script())
     result, truth = await episode(robot, _settings(fake, retries=0))
     assert (result.outcome, result.believed_success, truth) == ("ended", True, True), result.error
@@ -48,6 +51,29 @@ async def test_t1_through_a_llama_cpp_server_reaches_the_robot(robot: Robot, fak
     assert all(b["tool_choice"] == "auto" and b["tools"] for b in bodies)
     sent = [m for b in bodies for m in b["messages"] if m["role"] == "assistant"]
     assert sent and all(m.get("content") == "" for m in sent if m.get("tool_calls"))
+    assert max(_max_lengths(bodies[0]["tools"])) == 200 <= LOCAL_MAX_LENGTH  # the names keep their bound
+
+
+def test_only_a_local_server_is_sent_the_tools_without_their_long_bounds() -> None:
+    tools = [function_definition("end_task", "End.", END_TASK_SCHEMA)]
+    _, local, _ = sendable_request(LOCAL, [], tools, "http://127.0.0.1:8080/v1")
+    _, cloud, _ = sendable_request("gpt-4.1", [], tools, None)
+    assert _max_lengths(local) == [200] and _max_lengths(cloud) == [200, 4000]  # the robot server enforces both
+
+
+END_TASK_SCHEMA = {
+    "type": "object",
+    "properties": {"status": {"type": "string", "maxLength": 200}, "summary": {"type": "string", "maxLength": 4000}},
+}
+
+
+def _max_lengths(value: object) -> list[int]:
+    if isinstance(value, dict):
+        own = [value["maxLength"]] if isinstance(value.get("maxLength"), int) else []
+        return own + [n for v in value.values() for n in _max_lengths(v)]
+    if isinstance(value, list):
+        return [n for v in value for n in _max_lengths(v)]
+    return []
 
 
 @pytest.mark.parametrize("model", ROUTES)

@@ -5,7 +5,10 @@
   without its tools, so a model that meant to call one answers in prose instead (each call the script
   made becomes a line such as ``Move_to: {"location": "Kitchen Table"}``, as the real model wrote);
 - **a 500 on `content: null`**: an assistant message whose content is null (or missing) breaks the
-  chat template, every time, with the same body: ``'dict object' has no attribute 'content'``.
+  chat template, every time, with the same body: ``'dict object' has no attribute 'content'``;
+- **no grammar for a long `maxLength`**: a tool whose text argument allows 2,000 characters or more
+  cannot be made a grammar; the real server dies then (every later request is refused), which this
+  one stands for with a 500 naming the grammar.
 
 The model's own slips (double-encoded arguments, tool calls written as text, a turn cut at
 `max_tokens`) are the script's to write: see `Turn`.
@@ -22,6 +25,9 @@ from tests.fake_llm.replies import Fail, Reply, Request, Turn
 
 #: What the server's Jinja chat template answers for an assistant message with `content: null`.
 TEMPLATE_ERROR = "'dict object' has no attribute 'content'"
+#: What llama.cpp says of a grammar whose rule repeats 2,000 times or more (a `maxLength` that long).
+GRAMMAR_ERROR = "failed to parse grammar: number of rules that are going to be repeated exceeds sane defaults"
+GRAMMAR_LIMIT = 2000
 
 
 def llama_cpp(script: Callable[[Request], Reply]) -> Callable[[Request], Reply]:
@@ -32,6 +38,8 @@ def llama_cpp(script: Callable[[Request], Reply]) -> Callable[[Request], Reply]:
         for message in body.get("messages") or []:
             if message.get("role") == "assistant" and message.get("content") is None:
                 return Fail(500, TEMPLATE_ERROR)
+        if "tool_choice" in body and _longest(body.get("tools")) >= GRAMMAR_LIMIT:
+            return Fail(500, GRAMMAR_ERROR)
         reply = script(request)
         if body.get("tools") and "tool_choice" not in body and isinstance(reply, Turn) and reply.tool_calls:
             return Turn(text=prose(reply), usage=reply.usage)
@@ -47,3 +55,13 @@ def prose(turn: Turn) -> str:
         shown = arguments if isinstance(arguments, str) else json.dumps(arguments)
         lines.append(f"{name.capitalize()}: {shown}")
     return "\n".join(lines)
+
+
+def _longest(value: object) -> int:
+    """The largest `maxLength` anywhere in `value` (0: none)."""
+    if isinstance(value, dict):
+        own = value.get("maxLength")
+        return max([own if isinstance(own, int) else 0, *(_longest(v) for v in value.values())])
+    if isinstance(value, list):
+        return max([0, *(_longest(v) for v in value)])
+    return 0
