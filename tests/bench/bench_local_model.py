@@ -227,7 +227,7 @@ def run() -> dict[str, object]:
                 PARTIAL.write_text(json.dumps(figures, indent=1), encoding="utf-8")
     figures["local_model.model"] = (
         f"SmolLM2-135M-Instruct Q4_1 ({MODEL_WHEEL}) on {LLAMA_CPP}, chatml-function-calling, "
-        f"{MAX_INVOCATIONS} invocations, max_tokens {MAX_TOKENS}, temperature 0"
+        f"{MAX_INVOCATIONS} invocations of at most {MAX_STEPS} turns, max_tokens {MAX_TOKENS}, temperature 0"
     )
     if before:
         figures["local_model.before_revision"] = before
