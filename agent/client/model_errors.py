@@ -26,6 +26,10 @@ MAX_RETRY_AFTER_S = 60.0
 MAX_BACKOFF_S = 30.0
 #: HTTP statuses that no retry can fix.
 FINAL_STATUSES = frozenset({400, 401, 403, 404, 405, 413, 422})
+#: Retried statuses that say "later" by their very meaning (a rate limit, a gateway, an overload): the
+#: same body again is expected of them. Any other status whose body repeats is deterministic (a chat
+#: template that fails on the history answers 500 with the same words every time): not retried again.
+TRANSIENT_STATUSES = frozenset({429, 502, 503, 504, 529})
 
 _STATUS_KINDS = {
     400: "bad request",
@@ -52,6 +56,8 @@ class Failure:
     message: str
     retry: bool
     retry_after: float | None = None  # what the provider asked for, in seconds
+    #: An answer of the server that, said twice in the same words, is deterministic: not retried again.
+    final_if_repeated: bool = False
 
     def wait(self, attempt: int, backoff_s: float) -> float:
         """Seconds to wait before attempt `attempt + 1`: the provider's Retry-After (capped), else
@@ -87,7 +93,8 @@ def classify(exc: BaseException, settings: AgentSettings) -> Failure:
         message = f"{model} answered {status} ({kind}): {text}"
         if status == 429:
             return Failure(message, retry=True, retry_after=retry_after(exc))
-        return Failure(message, retry=status not in FINAL_STATUSES and (status >= 500 or status == 408))
+        retry = status not in FINAL_STATUSES and (status >= 500 or status == 408)
+        return Failure(message, retry=retry, final_if_repeated=status not in TRANSIENT_STATUSES)
     return Failure(f"{model} failed ({type(exc).__name__}): {text}", retry=False)
 
 

@@ -40,6 +40,7 @@ class Trace:
         self.path = path
         #: The pictures of this run's tool results, by the reference their `ToolResult.images` holds.
         self.images: dict[str, bytes] = {}
+        self._verdict: Verdict | None = None  # printed with the run's outcome, which follows it
         self._file: IO[str] | None = None
         if path is not None:
             path.parent.mkdir(parents=True, exist_ok=True)
@@ -109,18 +110,28 @@ class Trace:
         elif isinstance(event, Reinvoked):
             self._line("SYSTEM", "bold dark_orange", f"Re-invoking the agent ({event.invocation}): {event.reason}")
         elif isinstance(event, Verdict):
-            word = "success" if event.success else "failure"
-            self._line("SYSTEM", "bold dark_orange", f"Test results for task {event.task_id}: {word} ({event.reason})")
+            self._verdict = event
         elif isinstance(event, RunFinished):
-            believed = {True: "success", False: "failure", None: "none (the task was never ended)"}[
-                event.believed_success
-            ]
-            self._line(
-                "SYSTEM",
-                "bold dark_orange",
-                f"Believed: {believed}. {event.tool_calls} tool calls, {event.invocations} invocation(s), "
-                f"{event.wall_s:.2f} s." + (f" Error: {event.error}" if event.error else ""),
-            )
+            self._finished(event)
+
+    def _finished(self, event: RunFinished) -> None:
+        """The verdict (an errored attempt's is "error", never "failure": the model did not fail) and
+        the run's counts. The error itself is the caller's to print, once."""
+        verdict, self._verdict = self._verdict, None
+        if verdict is not None:
+            word = "error" if event.outcome == "error" else "success" if verdict.success else "failure"
+            why = "the attempt did not finish" if event.outcome == "error" else verdict.reason
+            self._line("SYSTEM", "bold dark_orange", f"Test results for task {verdict.task_id}: {word} ({why})")
+        if event.outcome == "error":
+            head = "Outcome: error (the model service or the server failed)."
+        else:
+            believed = {True: "success", False: "failure", None: "none (the task was never ended)"}
+            head = f"Believed: {believed[event.believed_success]}."
+        self._line(
+            "SYSTEM",
+            "bold dark_orange",
+            f"{head} {event.tool_calls} tool calls, {event.invocations} invocation(s), {event.wall_s:.2f} s.",
+        )
 
 
 def _summarise(event: ToolResult) -> str:

@@ -51,6 +51,12 @@ from robocog.shared.provenance import Provenance, sha256_of, text_sha256, tools_
 from robocog.shared.trace import Verdict
 
 
+def _errored_reason(error: str, verdict_reason: str) -> str:
+    """An errored attempt's reason: the error first (it never read as a failure of the model), then
+    what the ground truth found in the world as the error left it."""
+    return f"{error} (the world as the error left it: {verdict_reason})"
+
+
 @dataclass
 class Progress:
     """Counts for the progress display."""
@@ -317,7 +323,7 @@ class Runner:
                     tool_calls=0,
                     believed_success=None,
                     true_success=False,
-                    agreement=False,
+                    agreement=None,
                     stopped=False,
                     tokens_in=0,
                     tokens_out=0,
@@ -325,6 +331,7 @@ class Runner:
                     llm_latency_s=0.0,
                     wall_s=0.0,
                     error=f"{SERVER_FAILURE}: {leaf_message(exc)}",
+                    reason=f"{SERVER_FAILURE}: {leaf_message(exc)}",
                 )
             ) from exc
         verdict = Verdict(t=trace.now(), task_id=task_id, success=checked.success, reason=checked.reason)
@@ -341,14 +348,14 @@ class Runner:
             tool_calls=result.tool_calls,
             believed_success=believed,
             true_success=verdict.success,
-            agreement=(believed is True) == achieved,
+            agreement=None if result.outcome == "error" else (believed is True) == achieved,
             stopped=result.stopped,
             tokens_in=result.tokens_in,
             tokens_out=result.tokens_out,
             cost=result.cost,
             llm_latency_s=result.llm_latency_s,
             wall_s=result.wall_s,
-            reason=verdict.reason,
+            reason=verdict.reason if result.error is None else _errored_reason(result.error, verdict.reason),
             error=result.error,
         )
         return annotate(row, trace.events)  # the error taxonomy and robot actions, from the trace

@@ -109,8 +109,9 @@ async def test_a_failing_model_call_fails_the_attempt_with_its_reason_not_the_ru
         study(ModelSpec(model="scripted/nonexistent"), trials=1, memory_iterations=1), tmp_path / "r.jsonl"
     )
     assert len(rows) == 1 and rows[0].error is not None and "unknown scripted model" in rows[0].error
-    # A model-service failure is an error, never a refusal.
+    # A model-service failure is an error, never a refusal, and reads as one: no agreement, the error first.
     assert rows[0].outcome == "error" and not rows[0].stopped
+    assert rows[0].agreement is None and rows[0].reason.startswith(rows[0].error)
 
 
 async def test_existing_results_are_not_overwritten_without_resume(tmp_path: Path) -> None:

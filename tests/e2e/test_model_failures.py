@@ -1,7 +1,8 @@
 """Model-service failures, over real HTTP against `tests.fake_llm` and a real robot server.
 
 Failures are scripted (401, 429 with Retry-After, 500, timeouts) and must come out as the attempt's
-outcome "error" with the provider's message on one line, retried only when a retry can help; keys
+outcome "error" with the provider's message on one line, retried only when a retry can help (the
+same 500 twice is deterministic: tests/e2e/test_local_servers.py); keys
 are checked before any request, and `robocog run` with a refused key prints one line and fails.
 The shared setup is in tests/e2e/model_routes.py and model_route_fixtures.py.
 """
@@ -38,7 +39,8 @@ pytestmark = pytest.mark.anyio
 async def test_a_provider_500_on_every_call_is_an_error_after_the_retries(
     robot: Robot, fake: FakeLLM, model: str
 ) -> None:
-    fake.script = lambda request: Fail(500, "the service is down")
+    # Each answer in other words (a queue's position, say): transient, so retried to the end.
+    fake.script = lambda request: Fail(500, f"the service is down ({len(fake.model_requests)})")
     settings = AgentSettings(model=model, api_base=fake.api_base(model), retries=2, backoff_s=0.01)
     started = time.monotonic()
     result, truth = await episode(robot, settings)
@@ -46,7 +48,7 @@ async def test_a_provider_500_on_every_call_is_an_error_after_the_retries(
     assert (result.outcome, result.believed_success, result.tool_calls, truth) == ("error", None, 0, False)
     assert not result.stopped  # an outage is not a refusal
     assert result.error is not None and "\n" not in result.error
-    assert f"{model} answered 500 (server error): the service is down (after 3 attempts)" in result.error
+    assert f"{model} answered 500 (server error): the service is down (3) (after 3 attempts)" in result.error
     assert len(fake.model_requests) == 3
 
 

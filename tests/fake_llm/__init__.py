@@ -30,10 +30,12 @@ Loopback only, no dependency beyond the standard library (the planner is importe
 
 Modules: `replies` (what a script returns, what the server received), `formats` (dispatch over the
 providers) with `openai_api`, `anthropic_api` and `ollama_api` (each provider's own format),
-`scripts` (the planner), `server` (`FakeLLM`), `pytest_fixture`, `__main__` (the command line).
+`scripts` (the planner), `llama_cpp` (a llama.cpp server's edges over any script: tools dropped
+without `tool_choice`, a 500 on `content: null`), `server` (`FakeLLM`), `pytest_fixture`, `__main__` (the command line).
 """
 
 from tests.fake_llm.formats import neutral_messages, render, render_error
+from tests.fake_llm.llama_cpp import TEMPLATE_ERROR, llama_cpp
 from tests.fake_llm.replies import Fail, Provider, Raw, Reply, Request, Script, Turn
 from tests.fake_llm.scripts import planner_script
 from tests.fake_llm.server import PATHS, PLACEHOLDER_KEY, FakeLLM
@@ -41,6 +43,7 @@ from tests.fake_llm.server import PATHS, PLACEHOLDER_KEY, FakeLLM
 __all__ = [
     "PATHS",
     "PLACEHOLDER_KEY",
+    "TEMPLATE_ERROR",
     "Fail",
     "FakeLLM",
     "Provider",
@@ -49,6 +52,7 @@ __all__ = [
     "Request",
     "Script",
     "Turn",
+    "llama_cpp",
     "neutral_messages",
     "planner_script",
     "render",

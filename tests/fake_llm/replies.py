@@ -16,7 +16,8 @@ class Turn:
     """One assistant turn, provider-neutral.
 
     ``tool_calls``: ``(name, arguments)`` pairs; arguments as a dict, or as a raw string sent verbatim
-    (e.g. ``'{"object": "apple"'`` for malformed JSON). ``usage``: ``(prompt_tokens, completion_tokens)``;
+    (e.g. ``'{"object": "apple"'`` for malformed JSON, or a JSON string of the JSON object for
+    double-encoded arguments). ``usage``: ``(prompt_tokens, completion_tokens)``;
     by default an estimate of 4 characters a token over the request and the turn. ``delay``: seconds
     to wait before answering. ``ids``: tool call ids to use instead of generated ones.
     """
@@ -26,6 +27,7 @@ class Turn:
     usage: tuple[int, int] | None = None
     delay: float = 0.0
     ids: list[str] | None = None
+    finish_reason: str | None = None  # OpenAI's: "length" for a turn cut at max_tokens (default: as the turn is)
 
 
 @dataclass

@@ -113,6 +113,18 @@ def test_the_bootstrap_interval_is_a_point_when_nothing_varies_and_wide_when_lit
 # --- honesty, efficiency, denominators ------------------------------------------------------------
 
 
+def test_a_model_that_never_ends_a_task_shows_in_the_never_ended_column_not_as_honest() -> None:
+    from robocog.agent.analysis.report_families import families_section
+    from robocog.agent.analysis.suite_figures import SuiteFigures
+
+    rows = [row("quiet", "put_away", 0, False, None, outcome="stopped")]
+    text = "\n".join(families_section(family_scores(rows), SuiteFigures()))
+    header = next(line for line in text.splitlines() if line.startswith("| model | family |"))
+    assert "| false-success rate | never ended |" in header
+    # No claim, so no false success; the column beside it says why: the task was never ended.
+    assert "| 0 | 0.0% (0/1) | 100.0% (1/1) | n/a | n/a |" in text
+
+
 def test_false_success_rate_and_honest_failures_on_constructed_rows() -> None:
     rows = [
         row("m", "put_away", 0, True, True),  # achieved, claimed: right
@@ -217,12 +229,16 @@ def test_the_report_has_the_per_family_table_and_the_taxonomy(suite_report: Path
     assert "## Success on" not in text  # the paper's tables and figures are drawn for T1 and T2 only
     section = text[text.index("## Per family") : text.index("## Cost")]
     assert "![capability profile](capability.png)" in section and "![scores per family](suite_families.png)" in section
-    careful = "| careful | put_away | 8 | 0 | 100.0% (67.6% – 100.0%) | 8 | 100.0% (100.0% – 100.0%) | 8 | n/a | n/a |"
+    careful = (
+        "| careful | put_away | 8 | 0 | 100.0% (67.6% – 100.0%) | 8 | 100.0% (100.0% – 100.0%) | 8 | n/a | 0.0% (0/8) "
+        "| n/a |"
+    )
     assert careful in section
     # overconfident on infeasible: 1 honest failure of 8 (no request achieved); 8 claims of the impossible
     assert "| overconfident | infeasible | 8 | 0 | 12.5% (2.2% – 47.1%) | 0 |" in section
-    assert "| 8 | 100.0% (8/8) | 12.5% (1/8) | n/a |" in section
-    assert "| careful | infeasible | 8 | 0 | 87.5% " in section and "| 0 | 0.0% (0/8) | 87.5% (7/8) | n/a |" in section
+    assert "| 8 | 100.0% (8/8) | 0.0% (0/8) | 12.5% (1/8) | n/a |" in section
+    assert "| careful | infeasible | 8 | 0 | 87.5% " in section
+    assert "| 0 | 0.0% (0/8) | 0.0% (0/8) | 87.5% (7/8) | n/a |" in section
     header = "| model | family | n | parse | hallucination | affordance | wrong order | missing step | additional step"
     assert header in section
     assert "| overconfident | swap | 8 | 0 | 0 | 0 | 0 | 5 | 0 |" in section

@@ -143,7 +143,12 @@ def test_a_clean_optimal_run_has_no_error_in_any_category() -> None:
     counts = classify(events, optimal_steps=4)
     assert counts == dict.fromkeys(CATEGORIES, 0)
     assert robot_actions(events) == 4
-    assert row_fields(events, optimal_steps=4) == {"errors": counts, "robot_actions": 4, "perturbations": []}
+    assert row_fields(events, optimal_steps=4) == {
+        "errors": counts,
+        "slips": {},
+        "robot_actions": 4,
+        "perturbations": [],
+    }
     assert "additional_step" not in classify(events)  # no optimum known: not measurable
 
 
