@@ -160,12 +160,13 @@ def _text_chars(fields: tuple[tuple[str, str | None], ...]) -> int:
 
 
 def call_message(call: Call, call_number: int) -> dict[str, Any]:
-    """The assistant message carrying the planner's decision."""
+    """The assistant message carrying the planner's decision (a tool call's text, when it has one, as
+    the message's content: `scripted/faulty` logs what it commits there)."""
     if call.name is None:
         return {"role": "assistant", "content": call.text}
     return {
         "role": "assistant",
-        "content": None,
+        "content": call.text or None,
         "tool_calls": [
             {
                 "id": f"call_{call_number}",
@@ -202,7 +203,7 @@ def scripted_turn(model: str, messages: list[Any], params: dict[str, Any]) -> tu
     """`scripted/<variant>`'s answer to `messages` (an assistant message) and how long to wait
     before giving it; `OfflineModelError` for an unknown variant or a bad latency."""
     variant = model.split("/")[-1]
-    if variant != "faulty" and not is_variant(variant):
+    if variant not in SCRIPTED_MODELS:
         known = ", ".join(f"scripted/{v}" for v in SCRIPTED_MODELS)
         raise OfflineModelError(f"unknown scripted model {model!r}; use one of {known}")
     seed = params.get("seed")

@@ -140,6 +140,13 @@ def look_again(calls: list[PastCall]) -> bool:
     return last.name in _ACTIONS and failed and last.result is not None and last.result.get("error") not in _UNDERSTOOD
 
 
+def surprised(calls: list[PastCall]) -> bool:
+    """The planner would look again because the world surprised it: news of a change, or a robot action
+    that failed (not the look into a container it has just opened, nor the first look)."""
+    last = calls[-1] if calls else None
+    return last is not None and (look_again(calls) or (last.is_error and last.name != "open"))
+
+
 def _route(belief: Belief, start: str, goal: str, avoid: frozenset[Corridor]) -> list[str] | None:
     """The fewest-hops route on the believed map from `start` to `goal` not using `avoid`."""
     came: dict[str, str | None] = {start: None}

@@ -4,9 +4,10 @@
 and the false-success rate's 95% interval against the rate the instrument set.
 
 `SUITE` and `SPLIT` (environment variables `ROBOCOG_INSTRUMENT_SUITE`, `ROBOCOG_INSTRUMENT_SPLIT`)
-pick the instances (robocog-v2's dev split, one trial, by default); a class the split cannot hold (no
+pick the instances (robocog-v2.1's dev split, one trial, by default); a class the split cannot hold (no
 perturbation in robocog-v1) records null, and a second, perturbed study (T1, the mug moved away
-mid-task) measures the ignored perturbation on its own as well.
+mid-task) measures the ignored perturbation on its own as well. `ROBOCOG_BENCH_KEEP=DIR` keeps the
+results files and traces in DIR (to score them again: `python -m robocog.agent.analysis.instrument`).
 """
 
 from __future__ import annotations
@@ -25,7 +26,8 @@ from robocog.agent.harness.study import run_eval
 from robocog.agent.policies import faulty
 from robocog.shared.evaluation import EvalConfig
 
-SUITE = os.environ.get("ROBOCOG_INSTRUMENT_SUITE", "robocog-v2")
+SUITE = os.environ.get("ROBOCOG_INSTRUMENT_SUITE", "robocog-v2.1")
+KEEP = os.environ.get("ROBOCOG_BENCH_KEEP")
 SPLIT = os.environ.get("ROBOCOG_INSTRUMENT_SPLIT", "dev")
 RATE = 0.3
 TRIALS = 1
@@ -51,7 +53,9 @@ def measure(study: dict[str, Any], params: dict[str, Any]) -> tuple[instrument.M
         }
     )
     with tempfile.TemporaryDirectory() as tmp:
-        out = Path(tmp) / "r.jsonl"
+        out = (Path(KEEP) / "-".join([*config.tasks[:1], str(len(config.tasks))]) if KEEP else Path(tmp)) / "r.jsonl"
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.unlink(missing_ok=True)
         start = time.perf_counter()
         rows = asyncio.run(run_eval(config, out))
         wall = time.perf_counter() - start
