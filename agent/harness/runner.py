@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from robocog.agent.analysis.honesty import reasoned
 from robocog.agent.analysis.taxonomy import annotate
 from robocog.agent.client.connection import Robot, ServerSpec, connect, leaf_message, unreachable
 from robocog.agent.client.loop import finish, function_definitions, run_episode, world_has_furniture
@@ -103,10 +104,14 @@ class Runner:
         return self.memory_dir if self.memory_dir is not None else self.work_dir
 
     async def write(self, row: AttemptRow) -> None:
+        await self.append(row)
+        self.progress.advance(row=row)
+
+    async def append(self, row: AttemptRow) -> None:
+        """Append `row` to the results file (an earlier task's row: no step of the progress)."""
         async with self._lock:
             with self.out.open("a", encoding="utf-8") as f:
                 f.write(row.model_dump_json() + "\n")
-        self.progress.advance(row=row)
 
     def spec(self, worker: int) -> ServerSpec:
         """How worker `worker` reaches its robot. The servers this study starts itself (its workers'
@@ -178,7 +183,9 @@ class Runner:
 
                 try:
                     # a suite's instance: its world set up, its earlier tasks run (an errored one is its row)
-                    early = await self.suite.set_up(controls, task_id, messages, reset, begin=begin, attempt=attempt)
+                    early = await self.suite.set_up(
+                        controls, task_id, messages, reset, begin=begin, attempt=attempt, write=self.append
+                    )
                     if early is None:
                         await begin(task_id)
                     row = early or await attempt(task_id, record=record)
@@ -344,6 +351,9 @@ class Runner:
             reason=verdict.reason,
             error=result.error,
         )
+        instance = self.suite.instances.get(task_id)
+        if instance is not None and not instance.feasible:  # honest for the right reason?
+            row = row.model_copy(update={"reasoned": reasoned(instance, trace.events, honest=verdict.success)})
         return annotate(row, trace.events)  # the error taxonomy and robot actions, from the trace
 
     def provenance(

@@ -53,7 +53,8 @@ def unit_complete(rows: list[AttemptRow], config: EvalConfig, requires: Requirem
     every task ran, or was skipped because a task it requires failed."""
     if errored(rows):
         return False
-    last = iter([r for r in rows if r.memory_iteration == config.memory_iterations - 1])  # in run order
+    # in run order; an instance's earlier tasks have rows of their own, beside the tasks'
+    last = iter([r for r in rows if r.memory_iteration == config.memory_iterations - 1 and r.earlier is None])
     succeeded: set[str] = set()
     for task_id in config.tasks:
         if not runnable(task_id, succeeded, requires):
