@@ -68,6 +68,7 @@ _UNCHECKED_NAMES = frozenset({"nothing_held", None})
 _INVALID_ARGUMENTS = "Invalid arguments for "
 _NO_SUCH_TOOL = "Error: there is no tool called"
 _MOVE_HINT = "move_to("
+_CLOSED = "which is closed"
 _OPEN_HINT = "open("
 _OCCUPIED_BY = re.compile(r"occupied by the (.+?)\.")
 
@@ -157,12 +158,13 @@ def moved_unseen(events: Sequence[TraceEvent]) -> set[int]:
     """The indices (in call order) of the robot actions a perturbation foiled before the agent could
     know of it: since the agent last looked around, a grab of an object a perturbation moved (a slip, a
     moved object), a place with the hand a slip emptied, a grab from or a place into a container a
-    perturbation closed (until the agent opens it again). Where such an action fails, the world
-    changed, not the agent's order of actions."""
+    perturbation closed that its result says is closed (until the agent opens it again). Where such an
+    action fails, the world changed, not the agent's order of actions."""
     moved: set[str] = set()
     slipped = False
     shut: set[str] = set()
     out: set[int] = set()
+    at_shut: dict[str, int] = {}  # a grab or place while a container is shut: its id -> its index
     n = -1
     for e in events:
         if isinstance(e, Perturbed) and not e.event.ended:
@@ -174,16 +176,20 @@ def moved_unseen(events: Sequence[TraceEvent]) -> set[int]:
         elif isinstance(e, ToolResult) and e.name == "look_around" and e.structured and not e.is_error:
             moved.clear()
             slipped = False
+        elif isinstance(e, ToolResult) and e.id in at_shut:
+            index = at_shut.pop(e.id)
+            if _CLOSED in str((e.structured or {}).get("message", "")):
+                out.add(index)
         elif isinstance(e, ToolCall):
             n += 1
             args = e.arguments or {}
             thing = args.get("object")
-            if (
-                (e.name == "grab" and isinstance(thing, str) and normalise(thing) in moved)
-                or (e.name == "place" and slipped)
-                or (e.name in ("grab", "place") and shut)
+            if (e.name == "grab" and isinstance(thing, str) and normalise(thing) in moved) or (
+                e.name == "place" and slipped
             ):
                 out.add(n)
+            elif e.name in ("grab", "place") and shut:
+                at_shut[e.id] = n  # the world's doing if its result says the container is closed
             elif e.name == "open" and isinstance(args.get("furniture"), str):
                 shut.discard(normalise(str(args["furniture"])))
     return out

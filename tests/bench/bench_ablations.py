@@ -5,7 +5,8 @@ one capability taken away (`scripted/without-<tag>`, `robocog.agent.policies.abl
 
 Figures, per tag (`robocog.agent.analysis.validity`): the ablation's success on the sampled instances
 tagged with its capability and on the others (n each), the oracle's on the same sets, and whether it
-meets the aims (at most 20% on the tagged, at least 95% on the others). `ROBOCOG_BENCH_KEEP=DIR`
+meets the aims (at most 20% on the tagged, at least 95% on the others). It draws the report's
+capability radar of the nine models into docs/capability-ablations.png. `ROBOCOG_BENCH_KEEP=DIR`
 keeps the results file and traces in DIR (`robocog report DIR/ablations/r.jsonl` draws the table).
 """
 
@@ -20,14 +21,25 @@ import time
 from pathlib import Path
 from typing import Any
 
+from robocog.agent.analysis.capability_figure import draw_capability
+from robocog.agent.analysis.scores import capability_scores
 from robocog.agent.analysis.validity import ORACLE, capability_validity
 from robocog.agent.harness.study import run_eval
 from robocog.agent.policies import ablations
-from robocog.shared.evaluation import EvalConfig
+from robocog.shared.evaluation import AttemptRow, EvalConfig, instance_rows
 
 SUITE = "robocog-v2.1"
 INSTANCES = int(os.environ.get("ROBOCOG_ABLATION_INSTANCES", "88"))
 KEEP = os.environ.get("ROBOCOG_BENCH_KEEP")
+RADAR = Path(__file__).resolve().parents[2] / "docs" / "capability-ablations.png"
+
+
+def draw_radar(rows: list[AttemptRow], path: Path = RADAR) -> None:
+    """The report's capability radar of the study (the oracle and every ablation), saved at `path`."""
+    with tempfile.TemporaryDirectory() as tmp:
+        name = draw_capability(capability_scores(instance_rows(rows)), Path(tmp), group="capability")
+        if name is not None:
+            (Path(tmp) / name).replace(path)
 
 
 def run(instances: int = INSTANCES) -> dict[str, Any]:
@@ -46,6 +58,7 @@ def run(instances: int = INSTANCES) -> dict[str, Any]:
         rows = asyncio.run(run_eval(config, out))
         wall = time.perf_counter() - start
     table = capability_validity(rows)
+    draw_radar(rows)
     figures: dict[str, Any] = {
         "ablations.suite": f"{SUITE}/dev",
         "ablations.instances": len(config.tasks),

@@ -217,3 +217,21 @@ def test_capability_validity_sets_tagged_against_untagged() -> None:
     assert v.tag == "memory" and (v.tagged.successes, v.tagged.n) == (1, 5)
     assert (v.untagged.successes, v.untagged.n) == (5, 5) and v.fails_tagged and v.passes_untagged
     assert v.oracle_tagged is not None and v.oracle_tagged.rate == 1.0
+
+
+def test_a_container_a_perturbation_closed_is_the_worlds_doing_only_where_it_is_the_cause() -> None:
+    shut = PerturbationEvent(kind="close_container", call=2, description="x", announced=False, container="fridge")
+    closed = {
+        "status": "failure",
+        "error": "out_of_reach",
+        "message": "Inside the fridge, which is closed. open('fridge') first.",
+    }
+    empty = {"status": "failure", "error": "nothing_held", "message": "The robot holds nothing."}
+    events = [
+        *_call(1, "move_to", location="Kitchen"),
+        Perturbed(t=1.6, invocation=1, id="c1", event=shut),
+        *_call(2, "place", closed, location="Kitchen", position="inside"),
+        *_call(3, "place", empty, location="Kitchen", position="shelf"),  # the agent's own error, shut or not
+    ]
+    counts = classify(events)
+    assert moved_unseen(events) == {1} and counts["wrong_order"] == 0 and counts["affordance"] == 1
