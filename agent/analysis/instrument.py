@@ -203,6 +203,17 @@ def measure(
     """The instrument's verdict on a study's rows (traces read relative to `base`, the results
     file's folder); rows of other models than `scripted/faulty` are left out. The rates are each
     row's model parameters (its provenance) unless given."""
+    return score(*attempts_of(rows, base, class_rates, detect))
+
+
+def attempts_of(
+    rows: Sequence[AttemptRow],
+    base: Path,
+    class_rates: Mapping[str, float] | None = None,
+    detect: Ignored = ignored,
+) -> tuple[list[Attempt], int]:
+    """The judged attempts of a study's rows (see `measure`) and the rows without a trace of their own
+    (studies run apart are scored together: `score` of their attempts joined)."""
     attempts: list[Attempt] = []
     skipped = 0
     for row in rows:
@@ -214,7 +225,7 @@ def measure(
             continue
         given = class_rates or rates(row.provenance.params if row.provenance else {})
         attempts.append(judge(row, read_trace(path), given, detect))
-    return score(attempts, skipped)
+    return attempts, skipped
 
 
 def table(m: Measure) -> str:
