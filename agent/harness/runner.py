@@ -32,13 +32,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from robocog.agent.analysis.honesty import reasoned
 from robocog.agent.analysis.taxonomy import annotate
 from robocog.agent.client.connection import Robot, ServerSpec, connect, leaf_message, unreachable
 from robocog.agent.client.loop import finish, function_definitions, run_episode, world_has_furniture
 from robocog.agent.client.model import resolve_api_key
 from robocog.agent.client.settings import AgentSettings
 from robocog.agent.client.trace_sinks import Trace
+from robocog.agent.harness import units
 from robocog.agent.harness.fleets import Fleets, memory_args
 from robocog.agent.harness.suite_run import SuiteRun
 from robocog.agent.harness.units import SERVER_FAILURE, episode_id, model_seed, runnable, slug, unit_namespace
@@ -104,14 +104,11 @@ class Runner:
         return self.memory_dir if self.memory_dir is not None else self.work_dir
 
     async def write(self, row: AttemptRow) -> None:
-        await self.append(row)
-        self.progress.advance(row=row)
-
-    async def append(self, row: AttemptRow) -> None:
-        """Append `row` to the results file (an earlier task's row: no step of the progress)."""
         async with self._lock:
             with self.out.open("a", encoding="utf-8") as f:
                 f.write(row.model_dump_json() + "\n")
+        if row.earlier is None:  # an instance's earlier task is no step of the progress
+            self.progress.advance(row=row)
 
     def spec(self, worker: int) -> ServerSpec:
         """How worker `worker` reaches its robot. The servers this study starts itself (its workers'
@@ -184,12 +181,12 @@ class Runner:
                 try:
                     # a suite's instance: its world set up, its earlier tasks run (an errored one is its row)
                     early = await self.suite.set_up(
-                        controls, task_id, messages, reset, begin=begin, attempt=attempt, write=self.append
+                        controls, task_id, messages, reset, begin=begin, attempt=attempt, write=self.write
                     )
                     if early is None:
                         await begin(task_id)
                     row = early or await attempt(task_id, record=record)
-                except ServerBroke as broke:
+                except units.ServerBroke as broke:
                     await self.write(broke.row)
                     self.progress.advance(len(cfg.tasks) - index - 1)
                     return iteration + 1
@@ -309,7 +306,7 @@ class Runner:
             checked = await self.controls(robot).check_task(task_id, record=record)
         except Exception as exc:  # the server or the transport died: this attempt fails, not the study
             trace.close()
-            raise ServerBroke(
+            raise units.ServerBroke(
                 AttemptRow(
                     **base,
                     outcome="error",
@@ -351,9 +348,7 @@ class Runner:
             reason=verdict.reason,
             error=result.error,
         )
-        instance = self.suite.instances.get(task_id)
-        if instance is not None and not instance.feasible:  # honest for the right reason?
-            row = row.model_copy(update={"reasoned": reasoned(instance, trace.events, honest=verdict.success)})
+        row = self.suite.reasoned(task_id, row, trace.events)  # honest for the right reason (infeasible)
         return annotate(row, trace.events)  # the error taxonomy and robot actions, from the trace
 
     def provenance(
@@ -400,11 +395,3 @@ class Runner:
                             break  # reconnect: a new server, the same memory on disk
             except ServerConnectionError as exc:
                 raise ServerConnectionError(f"worker {index}: {exc}") from exc
-
-
-class ServerBroke(ServerConnectionError):
-    """The server died during an attempt; carries the attempt's row."""
-
-    def __init__(self, row: AttemptRow) -> None:
-        super().__init__(row.error)
-        self.row = row

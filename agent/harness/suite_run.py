@@ -4,14 +4,16 @@ up on the server, its earlier tasks run first, and the fields its row carries.
 
 from __future__ import annotations
 
-from collections.abc import Awaitable, Callable
+from collections.abc import Awaitable, Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from robocog.agent.analysis.honesty import reasoned
 from robocog.shared.controls import EvalControls
 from robocog.shared.evaluation import AttemptRow, EvalConfig
 from robocog.shared.provenance import sha256_of
 from robocog.shared.suite import Instance, load_split
+from robocog.shared.trace import TraceEvent
 
 
 @dataclass(frozen=True)
@@ -97,6 +99,14 @@ class SuiteRun:
                 why = f"not run: its earlier task {pre.id} failed ({row.reason})"
                 return self._not_run(row, task_id, why)
         return None
+
+    def reasoned(self, task_id: str, row: AttemptRow, events: Sequence[TraceEvent]) -> AttemptRow:
+        """On an infeasible instance, the row with whether its honest failure named what blocks the task
+        (`robocog.agent.analysis.honesty`); any other row as it is."""
+        instance = self.instances.get(task_id)
+        if instance is None or instance.feasible:
+            return row
+        return row.model_copy(update={"reasoned": reasoned(instance, events, honest=row.true_success)})
 
     def _not_run(self, row: AttemptRow, task_id: str, reason: str) -> AttemptRow:
         """The instance's row when it was not run: a failure with nothing measured (no calls, no trace,

@@ -10,6 +10,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from robocog.agent.policies import model_seed as model_seed  # re-exported: units.model_seed
+from robocog.shared.errors import ServerConnectionError
 from robocog.shared.evaluation import AttemptRow, EvalConfig, ModelSpec
 
 
@@ -33,6 +34,14 @@ def unit_namespace(study: str, model: str, trial: int) -> str:
 
 #: The error of an attempt during which the server or the transport died.
 SERVER_FAILURE = "server failure"
+
+
+class ServerBroke(ServerConnectionError):
+    """The server died during an attempt; carries the attempt's row."""
+
+    def __init__(self, row: AttemptRow) -> None:
+        super().__init__(row.error)
+        self.row = row
 
 
 Requirements = Mapping[str, Sequence[str]]  # task id -> tasks that must have succeeded first
