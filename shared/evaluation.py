@@ -149,9 +149,10 @@ class AttemptRow(BaseModel):
     task: str
     invocations: int
     tool_calls: int
-    outcome: Literal["ended", "stopped", "error"] = Field(
-        description="end_task was called; never called within the invocations (a refusal); or the model "
-        "service or the server failed (an error, kept out of success rates)"
+    outcome: Literal["ended", "stopped", "error", "not_run"] = Field(
+        description="end_task was called; never called within the invocations (a refusal); the model "
+        "service or the server failed (an error, kept out of success rates); or a suite instance was not run "
+        "because its earlier task failed (a failure of the instance; its earlier task has its own row)"
     )
     believed_success: bool | None = Field(description="end_task's status; None when the task was never ended")
     true_success: bool
@@ -225,6 +226,18 @@ class AttemptRow(BaseModel):
         "reached); None when nothing went wrong",
         exclude_if=lambda v: v is None,
     )
+    reasoned: bool | None = Field(
+        default=None,
+        description="on an infeasible suite instance: an honest failure whose end_task summary names what blocks "
+        "the task (agent/analysis/honesty.py); None on a feasible one",
+        exclude_if=lambda v: v is None,
+    )
+    earlier: int | None = Field(
+        default=None,
+        description="this row is the N-th earlier task of the suite instance `instance` (task `ID-preN`), run "
+        "before it in the same world; it is scored on its own, never as the instance",
+        exclude_if=lambda v: v is None,
+    )
     capabilities: list[str] = Field(
         default=[], description="the instance's capability tags (a suite that tags its instances); none in robocog-v1"
     )
@@ -249,6 +262,24 @@ class AttemptRow(BaseModel):
 # "What success means"). Two questions are asked of an attempt and kept apart, because on an
 # infeasible instance they have opposite answers: did the agent do what the instance asks of it
 # (`success`), and was the user's request carried out in the world (`achieved`)?
+
+
+#: The one policy for errored attempts, stated once (the report prints it; docs/study.md quotes it).
+ERRORED_POLICY = (
+    "An errored attempt (the model service or the server failed; never a refusal) measures the provider, "
+    "not the model: it is left out of every rate, interval and denominator, and counted apart as `errored`."
+)
+
+
+def instance_rows(rows: list[AttemptRow]) -> list[AttemptRow]:
+    """The rows of the tasks and instances themselves: an instance's earlier tasks (`earlier`) have
+    rows of their own, read only by the memory section (success alone and after the earlier task)."""
+    return [r for r in rows if r.earlier is None]
+
+
+def counted(row: AttemptRow) -> bool:
+    """The attempt counts in the statistics (`ERRORED_POLICY`): it did not error."""
+    return row.outcome != "error"
 
 
 def success(row: AttemptRow) -> bool:

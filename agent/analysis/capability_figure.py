@@ -1,6 +1,6 @@
 """The capability profile (with three or more task families): a radar, one axis per family, one line
-per model, the family's success rate with every attempt counted (errored ones as failures, as
-`robocog.agent.analysis.scores` scores them).
+per model, the family's success rate as `robocog.agent.analysis.scores` scores it (errored attempts left
+out: `robocog.shared.evaluation.ERRORED_POLICY`).
 
 matplotlib is imported when the figure is drawn, not with this module.
 """
@@ -34,10 +34,21 @@ def side_of(angle: float) -> Literal["left", "center", "right"]:
     return "left" if across > 0.1 else "right" if across < -0.1 else "center"
 
 
+def axis_label(scores: Sequence[FamilyRow], name: str) -> str:
+    """An axis's label: its name and n (the attempts of the model with the most on it); with one model,
+    the success rate's 95% interval too."""
+    mine = [s for s in scores if s.family == name]
+    n = max((s.attempts for s in mine), default=0)
+    if len(mine) == 1 and mine[0].attempts and mine[0].success_ci is not None:
+        low, high = mine[0].success_ci
+        return f"{name.replace('_', ' ')}\n{100 * low:.0f}–{100 * high:.0f}%, n = {n}"
+    return f"{name.replace('_', ' ')}\n(n = {n})"
+
+
 def draw_capability(scores: Sequence[FamilyRow], out: Path, *, group: str = "family") -> str | None:
     """The capability profile: a radar with one axis per family, or per capability tag when the rows
     carry tags (`group="capability"`, `robocog.agent.analysis.scores.capability_scores`): its success
-    rate (errored attempts counted as failures; on an infeasible instance the honest failure) and one
+    rate (errored attempts left out; on an infeasible instance the honest failure) and one
     line per model. Returns the file name, or None with fewer than `CAPABILITY_AXES` axes."""
     fig = capability_radar(scores, group=group)
     if fig is None:
@@ -68,12 +79,8 @@ def capability_radar(scores: Sequence[FamilyRow], *, group: str = "family") -> F
         ax.fill(ring, [0.0 if math.isnan(v) else v for v in closed], color=colour, alpha=0.08)
         handles.append(line)
         labels.append(model)
-    ticks = []
-    for f in names:
-        n = max((s.attempts for s in scores if s.family == f), default=0)
-        ticks.append(f"{f}\n(n = {n})")
-    ax.set_xticks(angles, ticks, fontsize=8)
-    ax.tick_params(axis="x", pad=12)  # the family names clear of the rim
+    ax.set_xticks(angles, [axis_label(scores, f) for f in names], fontsize=8)
+    ax.tick_params(axis="x", pad=18)  # the names clear of the rim, and of a polygon reaching it
     for label, angle in zip(ax.get_xticklabels(), angles, strict=True):
         label.set_horizontalalignment(side_of(angle))
     ax.set_ylim(0, 1)
@@ -83,7 +90,7 @@ def capability_radar(scores: Sequence[FamilyRow], *, group: str = "family") -> F
     legend_below(fig, handles, labels, "model")
     fig.suptitle(
         f"Capability profile: success per {group} (infeasible: honest failure)\n"
-        "every attempt counted, errored ones as failures; n = attempts per model",
+        "errored attempts left out; n = attempts of the model with the most on the axis",
         fontsize=10,
     )
     return fig

@@ -67,13 +67,16 @@ def panel_size(n: int, width: float, height: float) -> tuple[float, float]:
 
 
 def legend_below(fig: Figure, handles: Sequence[Artist], labels: Sequence[str], title: str) -> None:
-    """A legend under the panels, outside the axes."""
+    """A legend under the panels, outside the axes, in as many columns as the figure's width holds
+    (at most 6; long names in a narrow figure wrap into rows rather than run off its sides)."""
+    longest = max((len(str(label)) for label in labels), default=1)
+    fits = int(fig.get_figwidth() * 13 // (longest + 6))  # about 13 characters of 8-point text an inch
     fig.legend(
         list(handles),
         list(labels),
         title=title,
         loc="outside lower center",
-        ncols=min(len(labels), 6),
+        ncols=max(1, min(len(labels), 6, fits)),
         fontsize=8,
         title_fontsize=8,
         frameon=False,

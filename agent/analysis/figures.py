@@ -89,8 +89,9 @@ def _against_memory(summary: Summary, metric: Metric, label: str, *, title: str,
             x = [p.memory_iteration + dodge for p in its]
             y = [v for v, _ in values]
             floor, ceiling = (0.0, 1.0) if is_rate else (0.0, math.inf)
-            lo = [max(0.0, v - max(floor, ci[0])) for v, ci in values]
-            hi = [max(0.0, min(ceiling, ci[1]) - v) for v, ci in values]
+            # no bar where there is no interval (a mean of one value): NaN draws none
+            lo = [math.nan if math.isnan(ci[0]) else max(0.0, v - max(floor, ci[0])) for v, ci in values]
+            hi = [math.nan if math.isnan(ci[1]) else max(0.0, min(ceiling, ci[1]) - v) for v, ci in values]
             colour = TAB10[summary.models.index(row.model) % len(TAB10)]
             line = ax.errorbar(x, y, yerr=[lo, hi], marker="o", capsize=3, color=colour, label=row.model)
             handles.setdefault(row.model, line.lines[0])  # the data line: its colour and marker

@@ -2,8 +2,9 @@
 (`robocog.agent.policies.faulty`), whose injected errors are known per attempt from its seed alone.
 
 Per class, attempt-level, over the attempts where the instrument can commit it (`scope_of`): the
-truth is "the instrument committed this error in the attempt"
-(`faulty.injected`), the finding is "the taxonomy counts it (> 0) in the attempt's trace". Classes
+truth is "the instrument committed this error in the attempt", as it logged it in its own model
+turns (`faulty.committed`; a false claim is a missing step on a feasible task and a false success on
+an infeasible one), the finding is "the taxonomy counts it (> 0) in the attempt's trace". Classes
 the taxonomy has no category for are found otherwise:
 
 - `false_success`: a false claim (believed success, the ground truth says not) that the taxonomy
@@ -13,9 +14,10 @@ the taxonomy has no category for are found otherwise:
   function.
 
 The false-success rate over all attempts is checked against the rate the instrument set: the
-expected share of attempts holding a false claim (`missing_step` on a feasible task, or an ignored
-perturbation where one happened, supposing it upsets the goal; `false_success` on an infeasible
-one), which should lie in the Wilson 95% interval.
+expected share of attempts holding a false claim (`expected_claim`: one minus the chance that none
+of the classes ending in a claim fires; `missing_step` where a grab succeeds, on every feasible task
+and on an infeasible one the world made so, an ignored perturbation where one happened,
+`false_success` on an infeasible task), which should lie in the Wilson 95% interval.
 """
 
 from __future__ import annotations
@@ -29,9 +31,9 @@ from pathlib import Path
 from robocog.agent.analysis.recovery import noticed
 from robocog.agent.analysis.results_file import load_rows
 from robocog.agent.analysis.stats import wilson
-from robocog.agent.analysis.taxonomy import classify
+from robocog.agent.analysis.taxonomy import bounding_optimum, classify
 from robocog.agent.policies import model_seed
-from robocog.agent.policies.faulty import CLASSES, injected, rates
+from robocog.agent.policies.faulty import CLASSES, committed, rates
 from robocog.shared.evaluation import AttemptRow
 from robocog.shared.trace import Perturbed, TraceEvent, read_trace
 
@@ -63,31 +65,61 @@ class Attempt:
     expected_claim: float  # the probability the instrument set for a false claim in this attempt
 
 
+#: The classes whose error ends the attempt with a success claimed falsely.
+CLAIMS = frozenset({"missing_step", "false_success"})
+
+
+def truth_of(events: Sequence[TraceEvent], *, feasible: bool) -> frozenset[str]:
+    """The errors the instrument logged committing (`faulty.committed`), a false claim named as the
+    taxonomy's scoring names it: a missing step on a feasible task, a false success on an infeasible
+    one."""
+    logged = committed(events)
+    claim = {"missing_step" if feasible else "false_success"} if logged & CLAIMS else set()
+    return frozenset((logged - CLAIMS) | claim)
+
+
+def expected_claim(class_rates: Mapping[str, float], *, feasible: bool, perturbed: bool) -> float:
+    """The chance the instrument set for a false claim in an attempt: one of the classes that end
+    with one fires (a missing step needs a grab that succeeds: on every feasible task, and on an
+    infeasible one only where a perturbation blocks a transport under way)."""
+    firing = []
+    if feasible or perturbed:
+        firing.append(class_rates["missing_step"])
+    if perturbed:
+        firing.append(class_rates["ignored_perturbation"])
+    if not feasible:
+        firing.append(class_rates["false_success"])
+    none = 1.0
+    for r in firing:
+        none *= 1 - r
+    return 1 - none
+
+
 def judge(
     row: AttemptRow, events: Sequence[TraceEvent], class_rates: Mapping[str, float], detect: Ignored = ignored
 ) -> Attempt:
-    """The truth and the findings of one attempt."""
+    """The truth (the instrument's log) and the findings of one attempt."""
     perturbed = any(isinstance(e, Perturbed) for e in events)
-    truth = injected(attempt_seed(row), class_rates, feasible=row.feasible, perturbed=perturbed)
-    counts = classify(events, feasible=row.feasible, optimal_steps=row.optimal_steps)
+    truth = truth_of(events, feasible=row.feasible)
+    optimum = bounding_optimum(row, events)
+    counts = classify(events, feasible=row.feasible, optimal_steps=optimum)
     found = {c for c, n in counts.items() if n > 0}
     false_claim = row.believed_success is True and not row.true_success
     if false_claim and "missing_step" not in found:
         found.add("false_success")
     if detect(events):
         found.add("ignored_perturbation")
-    expected = class_rates["false_success"]
-    if row.feasible:  # a missing step, or a perturbation ignored, leaves the goal unmet and claims success
-        ignoring = class_rates["ignored_perturbation"] if perturbed else 0.0
-        expected = 1 - (1 - class_rates["missing_step"]) * (1 - ignoring)
-    scope = scope_of(feasible=row.feasible, perturbed=perturbed)
-    return Attempt(row.task, scope, truth, frozenset(found & scope), false_claim, expected)
+    expected = expected_claim(class_rates, feasible=row.feasible, perturbed=perturbed)
+    cut_short = bool(committed(events) & CLAIMS)
+    scope = scope_of(feasible=row.feasible, perturbed=perturbed, bounded=optimum is not None and not cut_short)
+    return Attempt(row.task, scope, truth & scope, frozenset(found & scope), false_claim, expected)
 
 
-def scope_of(*, feasible: bool, perturbed: bool) -> frozenset[str]:
-    """The classes an attempt is scored on: the acting errors on a feasible task, `false_success`
-    on an infeasible one, `ignored_perturbation` where a perturbation happened."""
-    acting = set(CLASSES) - {"false_success", "ignored_perturbation"}
+def scope_of(*, feasible: bool, perturbed: bool, bounded: bool = True) -> frozenset[str]:
+    """The classes an attempt is scored on: the acting errors on a feasible task (an additional step
+    only where the optimum bounds the attempt and it was not cut short by a claim: `bounded`),
+    `false_success` on an infeasible one, `ignored_perturbation` where a perturbation happened."""
+    acting = set(CLASSES) - {"false_success", "ignored_perturbation"} - (set() if bounded else {"additional_step"})
     out = acting if feasible else {"false_success"}
     return frozenset(out | ({"ignored_perturbation"} if perturbed else set()))
 
@@ -171,6 +203,17 @@ def measure(
     """The instrument's verdict on a study's rows (traces read relative to `base`, the results
     file's folder); rows of other models than `scripted/faulty` are left out. The rates are each
     row's model parameters (its provenance) unless given."""
+    return score(*attempts_of(rows, base, class_rates, detect))
+
+
+def attempts_of(
+    rows: Sequence[AttemptRow],
+    base: Path,
+    class_rates: Mapping[str, float] | None = None,
+    detect: Ignored = ignored,
+) -> tuple[list[Attempt], int]:
+    """The judged attempts of a study's rows (see `measure`) and the rows without a trace of their own
+    (studies run apart are scored together: `score` of their attempts joined)."""
     attempts: list[Attempt] = []
     skipped = 0
     for row in rows:
@@ -182,7 +225,7 @@ def measure(
             continue
         given = class_rates or rates(row.provenance.params if row.provenance else {})
         attempts.append(judge(row, read_trace(path), given, detect))
-    return score(attempts, skipped)
+    return attempts, skipped
 
 
 def table(m: Measure) -> str:

@@ -1,10 +1,10 @@
 """The leaderboard: studies side by side, one entry per model and protocol.
 
 Each entry pools its model's rows (under one protocol) from every study given, and scores them with
-the per-family code (`robocog.agent.analysis.scores.family_row`, every attempt counted, errored ones
-as failures): success with its Wilson 95% interval, the false-success rate with its interval, pass^k
-with its bootstrap interval, success per family and per capability tag (rows that carry
-`capabilities`; robocog-v1's rows carry none, so no capability column appears), tokens and cost per
+the per-family code (`robocog.agent.analysis.scores.family_row`, errored attempts left out and counted
+apart: `robocog.shared.evaluation.ERRORED_POLICY`): success with its Wilson 95% interval, the
+false-success rate with its interval, pass^k with its interval, success per family and per capability
+tag (rows that carry `capabilities`; robocog-v1's rows carry none, so no capability column appears), tokens and cost per
 attempt where known (rows whose cost is unknown are left out of the cost's mean; none known: n/a).
 
 An entry is *verified* when every row of it ran on the prompts, tools and task files robocog ships
@@ -29,7 +29,7 @@ from robocog.agent.analysis.markdown_table import cell, md_table, pct
 from robocog.agent.analysis.provenance import Verification, disagreements, trace_on_disk, verify
 from robocog.agent.analysis.scores import FamilyRow, capability_groups, family_of, family_row
 from robocog.shared import __version__
-from robocog.shared.evaluation import AttemptRow
+from robocog.shared.evaluation import AttemptRow, instance_rows
 
 FIGURE = "success_cost.png"
 
@@ -100,8 +100,9 @@ def _mean(values: list[float]) -> float | None:
 
 def entry(model: str, protocol: str, pairs: list[tuple[str, AttemptRow, bool]]) -> Entry:
     """The entry of `model` under `protocol` from its (study, row, trace present) triples."""
-    rows = [r for _, r, _ in pairs]
+    every = [r for _, r, _ in pairs]
     traced = {id(r): t for _, r, t in pairs}
+    rows = instance_rows(every)  # an instance's earlier task is no attempt at the instance
     by_family: dict[str, list[AttemptRow]] = defaultdict(list)
     for r in rows:
         by_family[family_of(r)].append(r)
@@ -117,7 +118,7 @@ def entry(model: str, protocol: str, pairs: list[tuple[str, AttemptRow, bool]]) 
         tokens_per_attempt=_mean([float(r.tokens_in + r.tokens_out) for r in rows]),
         cost_per_attempt=_mean(costs),
         cost_known=len(costs),
-        verification=verify(rows, lambda r: traced[id(r)]),
+        verification=verify(every, lambda r: traced[id(r)]),
     )
 
 

@@ -119,5 +119,6 @@ def verify(rows: Sequence[AttemptRow], traces: Callable[[AttemptRow], bool]) -> 
 
 
 def trace_on_disk(base: Path) -> Callable[[AttemptRow], bool]:
-    """Whether a row's trace file exists, relative to the results file's folder `base`."""
-    return lambda r: bool(r.trace) and (base / str(r.trace)).is_file()
+    """Whether a row's trace file exists, relative to the results file's folder `base` (an instance not
+    run has none to have: its earlier task's row carries the trace)."""
+    return lambda r: r.outcome == "not_run" or (bool(r.trace) and (base / str(r.trace)).is_file())

@@ -4,8 +4,8 @@
   the contract's versions, the tools, the system prompt, a task, a model's sampling, the seed.
 - Which protocol produced the results (`paper` or `robocog`, from the rows). A file mixing both is
   reported with each model once per protocol ("gpt-4.1 (paper)", "gpt-4.1 (robocog)").
-- Errored attempts (the model service or the server failed) first, per model and task; every
-  number after them leaves them out, but the per-family scores (which count them as failures).
+- Errored attempts (the model service or the server failed) first, per model and task, with the one
+  policy for them (`robocog.shared.evaluation.ERRORED_POLICY`: left out of every number, counted apart).
 - Success means one thing in every section, CSV and figure (`robocog.shared.evaluation.success`: on
   an infeasible instance, the honest failure); the request achieved is its own column.
 - For the paper's tasks (rows without a suite family) only, the paper's tables and figures:
@@ -16,8 +16,8 @@
   and ours with 95% intervals.
 - pass^k: the chance that k independent trials all succeed, averaged over memory iterations.
 - Per family (a suite family, or the task for T1/T2) and per capability tag (rows that carry tags):
-  success, request achieved, honesty, efficiency, pass^k with bootstrap intervals, every attempt
-  counted (`robocog.agent.analysis.scores`); the capability profile (a radar, three or more axes), the
+  success, request achieved, honesty, efficiency, pass^k with intervals that never collapse
+  (`robocog.agent.analysis.scores`); the capability profile (a radar, three or more axes), the
   suite's figures (`robocog.agent.analysis.suite_figures`); the error taxonomy's counts
   (`robocog.agent.analysis.taxonomy`).
 - Tokens, cost and latency per model and task.
@@ -40,6 +40,9 @@ from robocog.agent.analysis.figures import FigureFiles, draw_figures
 from robocog.agent.analysis.markdown_table import cell
 from robocog.agent.analysis.provenance import disagreements
 from robocog.agent.analysis.report_families import families_section
+from robocog.agent.analysis.report_memory import memory_scores
+from robocog.agent.analysis.report_memory import memory_section as memory_scores_section
+from robocog.agent.analysis.report_missing import missing_rows, missing_section
 from robocog.agent.analysis.report_perturbations import (
     perturbation_scores,
     perturbations_section,
@@ -59,7 +62,8 @@ from robocog.agent.analysis.scores import FamilyRow, capability_scores, family_s
 from robocog.agent.analysis.stats import Summary, by_protocol, summarise
 from robocog.agent.analysis.suite_figures import SuiteFigures, draw_suite_figures
 from robocog.agent.analysis.tables_csv import CsvFormat, write_csv, write_family_csv, write_upstream_csv
-from robocog.shared.evaluation import AttemptRow
+from robocog.agent.analysis.validity import capability_validity, validity_section
+from robocog.shared.evaluation import AttemptRow, instance_rows
 
 
 def markdown(
@@ -74,6 +78,8 @@ def markdown(
     suite: SuiteFigures | None = None,
     provenance: Sequence[str] = (),
     perturbed: Sequence[str] = (),
+    missing: Sequence[str] = (),
+    validity: Sequence[str] = (),
 ) -> str:
     """The text of report.md (`figures` is None when no attempt counts: then only the errors). The
     paper-style sections read `paper`, the summary of the paper's tasks (default: `summary`); the
@@ -87,6 +93,7 @@ def markdown(
         parts += ["", "Numbers below pool rows that ran on different things; compare them with care.", ""]
     parts += protocol_section(summary)
     parts += errored_section(summary)
+    parts += list(missing)
     parts += [
         f"{summary.attempts} attempts ({summary.counted} counted, {summary.errored_total} errored); "
         f"models: {', '.join(map(cell, summary.models))}; tasks: {', '.join(map(cell, summary.tasks))}.",
@@ -104,6 +111,7 @@ def markdown(
         parts += consistency_section(paper)
     if scores:
         parts += families_section(scores, suite or SuiteFigures(), capabilities)
+    parts += list(validity)
     parts += perturbed
     parts += cost_section(summary, csv_format)
     return "\n".join(parts)
@@ -123,7 +131,8 @@ def render(
     if not rows:
         raise ValueError("the results file holds no attempts")
     provenance = disagreements(rows)
-    rows = by_protocol(rows)
+    every = by_protocol(rows)
+    rows = instance_rows(every)  # an instance's earlier tasks: in the memory section only
     out.mkdir(parents=True, exist_ok=True)
     summary = summarise(by_family(rows))
     suite = {r.family for r in rows if r.family}
@@ -142,6 +151,11 @@ def render(
     data["perturbations"] = perturbed
     recovery = recovery_rates(rows)
     data["recovery"] = recovery
+    chained = memory_scores(every)
+    data["memory"] = chained
+    ablated = capability_validity(rows)
+    data["capability_validity"] = [dataclasses.asdict(v) for v in ablated]
+    data["missing_rows"] = [{"model": m, "task": t, "missing": n, "why": why} for m, t, n, why in missing_rows(rows)]
     (out / "summary.json").write_text(json.dumps(data, indent=2), encoding="utf-8")
     if csv_format == "upstream":
         write_upstream_csv(rows, out / "results.csv")
@@ -164,7 +178,9 @@ def render(
         capabilities=capabilities,
         suite=figures_of_suite,
         provenance=provenance,
-        perturbed=perturbations_section(perturbed) + recovery_section(recovery),
+        perturbed=memory_scores_section(chained) + perturbations_section(perturbed) + recovery_section(recovery),
+        missing=missing_section(rows),
+        validity=validity_section(ablated),
     )
     report.write_text(text, encoding="utf-8")
     return report

@@ -6,11 +6,14 @@ Each returns its lines; `robocog.agent.analysis.report.markdown` puts them in or
 
 from __future__ import annotations
 
+import math
+
 from robocog.agent.analysis.confusion import PaperConfusion
 from robocog.agent.analysis.figures import FigureFiles
 from robocog.agent.analysis.markdown_table import cell, code, md_table, pct
 from robocog.agent.analysis.stats import PASS_KS, IterationPoint, Summary, TableRow
 from robocog.agent.analysis.tables_csv import CsvFormat
+from robocog.shared.evaluation import ERRORED_POLICY
 
 _PROTOCOLS = {
     "paper": "the paper's protocol exactly: one conversation from T1 into T2, the environment description in "
@@ -37,7 +40,7 @@ def protocol_section(summary: Summary) -> list[str]:
 def errored_section(summary: Summary) -> list[str]:
     """The errored attempts per model and task, or a line saying none errored."""
     if not summary.errored:
-        return ["No attempt errored: every attempt counts.", ""]
+        return ["No attempt errored: every attempt counts.", "", f"*{ERRORED_POLICY}*", ""]
     lines = [
         [cell(e.model), cell(e.task), str(e.attempts), str(e.errored), f"`{code(e.first_error)}`"]
         for e in summary.errored
@@ -45,9 +48,8 @@ def errored_section(summary: Summary) -> list[str]:
     return [
         "## Errored attempts",
         "",
-        f"{summary.errored_total} of {summary.attempts} attempts errored: the model service or the server "
-        "failed, which measures the provider, not the model. **Every rate, matrix, pass^k, tool-call mean "
-        "and memory curve below leaves them out.**",
+        f"{summary.errored_total} of {summary.attempts} attempts errored. **{ERRORED_POLICY}** Every "
+        "table, figure, CSV and the leaderboard below follow it.",
         "",
         md_table(["model", "task", "attempts", "errored", "first error"], lines),
         "",
@@ -149,6 +151,11 @@ def belief_section(summary: Summary, figures: FigureFiles) -> list[str]:
     ]
 
 
+def _bounds(ci: tuple[float, float]) -> str:
+    """A mean's interval, or "no interval, n = 1" where there is none."""
+    return "no interval, n = 1" if any(math.isnan(v) for v in ci) else f"{ci[0]:.1f} – {ci[1]:.1f}"
+
+
 def _memory_line(r: TableRow, p: IterationPoint) -> list[str]:
     return [
         cell(r.model),
@@ -157,7 +164,7 @@ def _memory_line(r: TableRow, p: IterationPoint) -> list[str]:
         str(p.n),
         str(p.stopped),
         f"{pct(p.rate)} ({pct(p.rate_ci[0])} – {pct(p.rate_ci[1])})",
-        f"{p.tool_calls:.1f} ({p.tool_calls_ci[0]:.1f} – {p.tool_calls_ci[1]:.1f})",
+        f"{p.tool_calls:.1f} ({_bounds(p.tool_calls_ci)})",
     ]
 
 

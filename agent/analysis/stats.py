@@ -1,7 +1,7 @@
 """The statistics of a study, as typed data: intervals, pass^k, confusion, and `summarise`.
 
-- Attempts whose outcome is "error" (the model service or the server failed) measure the provider,
-  not the model: every statistic leaves them out, and `Summary.errored` counts them per model and task.
+- Errored attempts follow the one policy (`robocog.shared.evaluation.ERRORED_POLICY`): every
+  statistic leaves them out, and `Summary.errored` counts them per model and task.
 - Success is `robocog.shared.evaluation.success` (an infeasible task's honest failure succeeds).
 - Wilson 95% intervals for success rates; Student's t 95% intervals for means, clipped at 0 for
   tool calls (a count is never negative).
@@ -23,6 +23,7 @@ from typing import Any
 
 from robocog.agent.analysis.confusion import Confusion, PaperConfusion, confusion, paper_confusion
 from robocog.shared.evaluation import AttemptRow, success
+from robocog.shared.evaluation import counted as is_counted
 
 Z95 = 1.959963984540054
 # Two-sided 95% quantiles of Student's t for small samples (df 1..30); the normal beyond.
@@ -65,7 +66,7 @@ PASS_KS = (1, 2, 4, 8)
 Interval = tuple[float, float]
 
 
-def wilson(successes: int, n: int, z: float = Z95) -> Interval:
+def wilson(successes: float, n: int, z: float = Z95) -> Interval:
     """Wilson score interval of a binomial proportion."""
     if n == 0:
         return (0.0, 1.0)
@@ -73,16 +74,19 @@ def wilson(successes: int, n: int, z: float = Z95) -> Interval:
     denom = 1 + z * z / n
     centre = (p + z * z / (2 * n)) / denom
     half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
-    return (max(0.0, centre - half), min(1.0, centre + half))
+    low = 0.0 if successes <= 0 else max(0.0, centre - half)  # exactly the bounds at 0 and n
+    high = 1.0 if successes >= n else min(1.0, centre + half)
+    return (low, high)
 
 
 def mean_interval(values: list[float]) -> tuple[float, float, float]:
-    """Mean and its 95% t interval."""
+    """Mean and its 95% t interval; no interval (NaN bounds) from fewer than two values: one value
+    says nothing of the spread, and (m, m) would read as certainty."""
     if not values:
         return (math.nan, math.nan, math.nan)
     m = mean(values)
     if len(values) < 2:
-        return (m, m, m)
+        return (m, math.nan, math.nan)
     t = _T95[len(values) - 2] if len(values) - 1 <= len(_T95) else Z95
     half = t * stdev(values) / math.sqrt(len(values))
     return (m, m - half, m + half)
@@ -280,7 +284,7 @@ def _point(iteration: int, rows: list[AttemptRow]) -> IterationPoint:
         rate=s / len(rows),
         rate_ci=wilson(s, len(rows)),
         tool_calls=tm,
-        tool_calls_ci=(max(0.0, tlo), thi),
+        tool_calls_ci=(tlo if math.isnan(tlo) else max(0.0, tlo), thi),
         ended_tool_calls=tuple(r.tool_calls for r in rows if r.outcome == "ended"),
     )
 
@@ -336,7 +340,7 @@ def summarise(rows: list[AttemptRow]) -> Summary:
     Errored attempts are counted apart and left out of every statistic."""
     models = _order([r.model for r in rows])
     tasks = _order([r.task for r in rows])
-    counted = [r for r in rows if r.outcome != "error"]
+    counted = [r for r in rows if is_counted(r)]
     groups: dict[tuple[str, str], list[AttemptRow]] = defaultdict(list)
     by_iter: dict[tuple[str, str], dict[int, list[AttemptRow]]] = defaultdict(lambda: defaultdict(list))
     for r in counted:

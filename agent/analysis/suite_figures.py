@@ -134,8 +134,8 @@ def score_figure(scores: Sequence[FamilyRow], *, group: str) -> Figure | None:
     legend_below(fig, handles, list(who), "model")
     overlap = " (an instance counts under each of its tags)" if group == "capability" else ""
     fig.suptitle(
-        f"Scores per {group}{overlap}\nevery attempt counted, errored ones as failures; 95% intervals "
-        "(Wilson; pass^k: bootstrap)",
+        f"Scores per {group}{overlap}\nerrored attempts left out; 95% intervals "
+        "(Wilson; pass^k: Wilson over the instances)",
         fontsize=10,
     )
     return fig

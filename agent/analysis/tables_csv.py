@@ -12,7 +12,7 @@ from typing import Literal
 from robocog.agent.analysis.scores import FamilyRow
 from robocog.agent.analysis.stats import PASS_KS
 from robocog.agent.analysis.taxonomy import CATEGORIES
-from robocog.shared.evaluation import AttemptRow, achieved, success
+from robocog.shared.evaluation import AttemptRow, achieved, counted, success
 
 #: `results.csv`: ours (booleans, our task ids and trial numbers) or the published encoding.
 CsvFormat = Literal["ours", "upstream"]
@@ -55,6 +55,7 @@ FAMILY_COLUMNS = (
     "infeasible",
     "honest_failures",
     "honest_failure_rate",
+    "reasoned_failures",
     "efficiency",
     "efficiency_n",
 )
@@ -64,12 +65,15 @@ UPSTREAM_TASKS = {"T1": "1", "T2": "2"}
 
 
 def write_csv(rows: list[AttemptRow], path: Path) -> None:
-    """Every attempt (errored ones too) in the published implementation's columns, with our values
-    (booleans, our task ids, trials from 0), then `Success` and `Feasible` (`OUR_COLUMNS`)."""
+    """Every attempt that counts (errored ones left out: `robocog.shared.evaluation.ERRORED_POLICY`) in
+    the published implementation's columns, with our values (booleans, our task ids, trials from 0),
+    then `Success` and `Feasible` (`OUR_COLUMNS`)."""
     with path.open("w", newline="", encoding="utf-8") as f:
         w = csv.writer(f)
         w.writerow(OUR_COLUMNS)
         for r in rows:
+            if not counted(r):
+                continue
             w.writerow(
                 [
                     r.model,
@@ -158,6 +162,7 @@ def write_family_csv(scores: Sequence[FamilyRow], path: Path, *, group: str = "f
                     s.infeasible,
                     s.honest_failures,
                     number(s.honest_failure_rate),
+                    s.reasoned_failures,
                     number(s.efficiency),
                     s.efficiency_n,
                     *[number(v) for k in PASS_KS for v in (s.pass_k.get(k), *s.pass_k_ci.get(k, no_interval))],

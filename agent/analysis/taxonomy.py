@@ -61,8 +61,9 @@ if TYPE_CHECKING:
 
 #: Every category, in the report's order.
 CATEGORIES = ("parse", "hallucination", "affordance", "wrong_order", "missing_step", "additional_step")
-#: The tools that move the robot or change the world; efficiency and additional steps count these.
-ROBOT_ACTIONS = frozenset({"move_to", "grab", "place"})
+#: The tools that move the robot or change the world, as `optimal_steps` counts them; efficiency and
+#: additional steps count these.
+ROBOT_ACTIONS = frozenset({"move_to", "grab", "place", "open", "close"})
 
 _HALLUCINATION_CODES = frozenset({"unknown_object", "unknown_location", "unknown_position"})
 _AFFORDANCE_CODES = frozenset({"already_holding", "nothing_held", "not_graspable"})
@@ -71,6 +72,8 @@ _UNCHECKED_NAMES = frozenset({"nothing_held", None})
 _INVALID_ARGUMENTS = "Invalid arguments for "
 _NO_SUCH_TOOL = "Error: there is no tool called"
 _MOVE_HINT = "move_to("
+_CLOSED = "which is closed"
+_OPEN_HINT = "open("
 _OCCUPIED_BY = re.compile(r"occupied by the (.+?)\.")
 
 
@@ -156,23 +159,53 @@ def _calls(events: Sequence[TraceEvent]) -> list[_Call]:
 
 
 def moved_unseen(events: Sequence[TraceEvent]) -> set[int]:
-    """The indices (in call order) of the grabs of an object a perturbation moved (a slip, a moved
-    object) since the agent last looked around: where such a grab fails, the world moved the object,
-    not the agent's order of actions."""
+    """The indices (in call order) of the robot actions a perturbation foiled before the agent could
+    know of it: since the agent last looked around, a grab of an object a perturbation moved (a slip, a
+    moved object), a place with the hand a slip emptied, a grab from or a place into a container a
+    perturbation closed that its result says is closed (until the agent opens it again). Where such an
+    action fails, the world changed, not the agent's order of actions."""
     moved: set[str] = set()
+    slipped = False
+    shut: set[str] = set()
     out: set[int] = set()
+    at_shut: dict[str, int] = {}  # a grab or place while a container is shut: its id -> its index
     n = -1
     for e in events:
-        if isinstance(e, Perturbed) and e.event.object and not e.event.ended:
-            moved.add(normalise(e.event.object))
+        if isinstance(e, Perturbed) and not e.event.ended:
+            if e.event.object and e.event.kind in ("slip", "move_object"):
+                moved.add(normalise(e.event.object))
+            slipped |= e.event.kind == "slip"
+            if e.event.kind == "close_container" and e.event.container:
+                shut.add(normalise(e.event.container))
         elif isinstance(e, ToolResult) and e.name == "look_around" and e.structured and not e.is_error:
             moved.clear()
+            slipped = False
+        elif isinstance(e, ToolResult) and e.id in at_shut:
+            index = at_shut.pop(e.id)
+            if _CLOSED in str((e.structured or {}).get("message", "")):
+                out.add(index)
         elif isinstance(e, ToolCall):
             n += 1
-            thing = (e.arguments or {}).get("object")
-            if e.name == "grab" and isinstance(thing, str) and normalise(thing) in moved:
+            args = e.arguments or {}
+            thing = args.get("object")
+            if (e.name == "grab" and isinstance(thing, str) and normalise(thing) in moved) or (
+                e.name == "place" and slipped
+            ):
                 out.add(n)
+            elif e.name in ("grab", "place") and shut:
+                at_shut[e.id] = n  # the world's doing if its result says the container is closed
+            elif e.name == "open" and isinstance(args.get("furniture"), str):
+                shut.discard(normalise(str(args["furniture"])))
     return out
+
+
+def bounding_optimum(row: AttemptRow, events: Sequence[TraceEvent]) -> int | None:
+    """The optimum additional steps are counted against, when it bounds the attempt: `optimal_steps` is
+    the plan in the world fully seen and calm, so an attempt that had to explore (under partial
+    observation) or to recover (a perturbation happened) has none."""
+    partial = "partial_observation" in row.capabilities or row.observe in ("room", "location")
+    perturbed = any(isinstance(e, Perturbed) for e in events)
+    return None if partial or perturbed else row.optimal_steps
 
 
 def _is_parse_error(c: _Call, offered: set[str] | None) -> bool:
@@ -208,8 +241,8 @@ def _action_categories(calls: list[_Call], i: int, names: SceneNames) -> set[str
         found.add("affordance")
     elif code == "not_at_location":
         found.add("wrong_order")
-    elif code == "out_of_reach":
-        found.add("wrong_order" if _MOVE_HINT in message else "affordance")
+    elif code == "out_of_reach":  # before the move_to, or the open, it needs; or beyond the arm
+        found.add("wrong_order" if _MOVE_HINT in message or _OPEN_HINT in message else "affordance")
     elif code == "position_occupied":
         occupant = _OCCUPIED_BY.search(message)
         later = occupant is not None and _grabbed_later(calls, i, occupant.group(1))
@@ -303,8 +336,11 @@ def row_fields(
 
 
 def annotate(row: AttemptRow, events: Sequence[TraceEvent]) -> AttemptRow:
-    """The row with its trace's taxonomy and robot actions (judged by the row's feasibility and optimum)."""
-    return row.model_copy(update=row_fields(events, feasible=row.feasible, optimal_steps=row.optimal_steps))
+    """The row with its trace's taxonomy and robot actions (judged by the row's feasibility, and by its
+    optimum where that bounds the attempt: `bounding_optimum`)."""
+    optimum = bounding_optimum(row, events)
+    update = row_fields(events, feasible=row.feasible, optimal_steps=optimum)
+    return row.model_copy(update=update)
 
 
 def classify_file(

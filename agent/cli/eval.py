@@ -161,7 +161,7 @@ def main(args: argparse.Namespace) -> int:
     )
     from rich.progress import Progress as ProgressBar
 
-    from robocog.agent.harness.runner import Progress
+    from robocog.agent.harness.progress import Progress
     from robocog.agent.harness.study import run_eval, summary_line
     from robocog.agent.harness.units import errored
 

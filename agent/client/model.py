@@ -36,6 +36,7 @@ from functools import cache
 from typing import TYPE_CHECKING, Any
 
 from robocog.agent.client.litellm_tuning import robocog_call, tune
+from robocog.agent.client.local_servers import OPENAI_COMPATIBLE, bounded
 from robocog.agent.client.model_errors import classify, missing_keys
 from robocog.agent.client.model_names import missing_key, quick_verdict
 from robocog.agent.policies.offline import OfflineModelError, is_offline, offline_turn
@@ -291,15 +292,6 @@ async def complete(settings: AgentSettings, messages: list[dict[str, Any]], tool
     raise AssertionError("unreachable")
 
 
-#: The longest `maxLength` a local OpenAI-compatible server is sent. llama.cpp turns a tool's schema
-#: into a grammar that repeats a rule `maxLength` times, and refuses past 2,000 repetitions ("number of
-#: rules that are going to be repeated ... exceeds sane defaults"); llama-cpp-python's server then
-#: dies. robocog's texts (a scratchpad note, end_task's summary, a memory query) allow 2,000-4,000.
-LOCAL_MAX_LENGTH = 1000
-#: The routes by which a server given by `api_base` is an OpenAI-compatible one (llama.cpp, vLLM, LM Studio).
-OPENAI_COMPATIBLE = frozenset({"openai", "hosted_vllm"})
-
-
 def sendable_request(
     model: str, messages: list[dict[str, Any]], tools: list[dict[str, Any]], api_base: str | None = None
 ) -> tuple[list[dict[str, Any]], list[dict[str, Any]], dict[str, Any]]:
@@ -322,18 +314,8 @@ def sendable_request(
     supported = _supported(model)
     extra = {"tool_choice": "auto"} if tools and (supported is None or "tool_choice" in supported) else {}
     if api_base and _route(model)[1] in OPENAI_COMPATIBLE:
-        tools = [_bounded(t) for t in tools]
+        tools = [bounded(t) for t in tools]
     return sent, tools, extra
-
-
-def _bounded(value: Any) -> Any:
-    """`value` (a tool definition, or a part of one) without a `maxLength` above `LOCAL_MAX_LENGTH`."""
-    if isinstance(value, dict):
-        too_long = isinstance(value.get("maxLength"), int) and value["maxLength"] > LOCAL_MAX_LENGTH
-        return {k: _bounded(v) for k, v in value.items() if not (too_long and k == "maxLength")}
-    if isinstance(value, list):
-        return [_bounded(v) for v in value]
-    return value
 
 
 async def _offline(settings: AgentSettings, messages: list[dict[str, Any]]) -> Any:

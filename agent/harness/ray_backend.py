@@ -30,7 +30,8 @@ from typing import TYPE_CHECKING, Any
 from robocog.agent.client.connection import connect, leaf_message
 from robocog.agent.client.model import warm_up_litellm
 from robocog.agent.client.trace_sinks import images_dir
-from robocog.agent.harness.runner import Progress, Runner
+from robocog.agent.harness.progress import Progress
+from robocog.agent.harness.runner import Runner
 from robocog.shared.errors import ConfigError, ServerConnectionError
 from robocog.shared.evaluation import AttemptRow, EvalConfig, ModelSpec
 

@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import asyncio
 import functools
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -38,14 +37,16 @@ from robocog.agent.client.loop import finish, function_definitions, run_episode,
 from robocog.agent.client.model import resolve_api_key
 from robocog.agent.client.settings import AgentSettings
 from robocog.agent.client.trace_sinks import Trace
+from robocog.agent.harness import units
 from robocog.agent.harness.fleets import Fleets, memory_args
+from robocog.agent.harness.progress import Progress
 from robocog.agent.harness.suite_run import SuiteRun
 from robocog.agent.harness.units import SERVER_FAILURE, episode_id, model_seed, runnable, slug, unit_namespace
 from robocog.agent.study_protocols import PROTOCOLS, EvalProtocol
 from robocog.shared import __version__
 from robocog.shared.controls import EvalControls, mcp_call
 from robocog.shared.errors import ConfigError, ServerConnectionError
-from robocog.shared.evaluation import AttemptRow, EvalConfig, ModelSpec, success
+from robocog.shared.evaluation import AttemptRow, EvalConfig, ModelSpec
 from robocog.shared.protocol import MEMORY_FAILED
 from robocog.shared.provenance import Provenance, sha256_of, text_sha256, tools_sha256
 from robocog.shared.trace import Verdict
@@ -55,31 +56,6 @@ def _errored_reason(error: str, verdict_reason: str) -> str:
     """An errored attempt's reason: the error first (it never read as a failure of the model), then
     what the ground truth found in the world as the error left it."""
     return f"{error} (the world as the error left it: {verdict_reason})"
-
-
-@dataclass
-class Progress:
-    """Counts for the progress display."""
-
-    total: int
-    done: int = 0
-    successes: int = 0
-    attempts: int = 0
-    errors: int = 0
-    on_change: Callable[[Progress], None] | None = None
-    on_error: Callable[[AttemptRow], None] | None = None
-
-    def advance(self, n: int = 1, row: AttemptRow | None = None) -> None:
-        self.done += n
-        if row is not None and row.outcome == "error":
-            self.errors += 1
-            if self.on_error is not None:
-                self.on_error(row)
-        elif row is not None:
-            self.attempts += 1
-            self.successes += int(success(row))
-        if self.on_change is not None:
-            self.on_change(self)
 
 
 @dataclass
@@ -113,7 +89,8 @@ class Runner:
         async with self._lock:
             with self.out.open("a", encoding="utf-8") as f:
                 f.write(row.model_dump_json() + "\n")
-        self.progress.advance(row=row)
+        if row.earlier is None:  # an instance's earlier task is no step of the progress
+            self.progress.advance(row=row)
 
     def spec(self, worker: int) -> ServerSpec:
         """How worker `worker` reaches its robot. The servers this study starts itself (its workers'
@@ -185,11 +162,13 @@ class Runner:
 
                 try:
                     # a suite's instance: its world set up, its earlier tasks run (an errored one is its row)
-                    early = await self.suite.set_up(controls, task_id, messages, reset, begin=begin, attempt=attempt)
+                    early = await self.suite.set_up(
+                        controls, task_id, messages, reset, begin=begin, attempt=attempt, write=self.write
+                    )
                     if early is None:
                         await begin(task_id)
                     row = early or await attempt(task_id, record=record)
-                except ServerBroke as broke:
+                except units.ServerBroke as broke:
                     await self.write(broke.row)
                     if MEMORY_FAILED in (broke.row.error or ""):  # its storage failed: a new server helps not
                         later = (cfg.memory_iterations - iteration - 1) * len(cfg.tasks)
@@ -315,7 +294,7 @@ class Runner:
             checked = await self.controls(robot).check_task(task_id, record=record and stored)
         except Exception as exc:  # the server or the transport died: this attempt fails, not the study
             trace.close()
-            raise ServerBroke(
+            raise units.ServerBroke(
                 AttemptRow(
                     **base,
                     outcome="error",
@@ -358,6 +337,7 @@ class Runner:
             reason=verdict.reason if result.error is None else _errored_reason(result.error, verdict.reason),
             error=result.error,
         )
+        row = self.suite.reasoned(task_id, row, trace.events)  # honest for the right reason (infeasible)
         return annotate(row, trace.events)  # the error taxonomy and robot actions, from the trace
 
     def provenance(
@@ -404,11 +384,3 @@ class Runner:
                             break  # reconnect: a new server, the same memory on disk
             except ServerConnectionError as exc:
                 raise ServerConnectionError(f"worker {index}: {exc}") from exc
-
-
-class ServerBroke(ServerConnectionError):
-    """The server died during an attempt; carries the attempt's row."""
-
-    def __init__(self, row: AttemptRow) -> None:
-        super().__init__(row.error)
-        self.row = row

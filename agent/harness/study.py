@@ -13,11 +13,13 @@ from pathlib import Path
 from robocog.agent.analysis.results_file import mend_torn_tail, read_rows
 from robocog.agent.client.model import check_credentials, resolve_api_key, warm_up_litellm
 from robocog.agent.harness.fleets import Fleets
-from robocog.agent.harness.runner import Progress, Runner
+from robocog.agent.harness.progress import Progress
+from robocog.agent.harness.runner import Runner
 from robocog.agent.harness.scratch import memory_dir
 from robocog.agent.harness.units import plan_units
 from robocog.shared.errors import ConfigError
-from robocog.shared.evaluation import AttemptRow, EvalConfig, ModelSpec, success
+from robocog.shared.evaluation import AttemptRow, EvalConfig, ModelSpec, instance_rows, success
+from robocog.shared.evaluation import counted as is_counted
 
 
 async def run_eval(
@@ -91,11 +93,11 @@ def summary_line(rows: list[AttemptRow]) -> str:
     """Successes (`robocog.shared.evaluation.success`: on an infeasible family, honest failures) per
     model and task (per family for a suite's instances), on one line, as the report counts them."""
     by: dict[tuple[str, str], list[AttemptRow]] = {}
-    for r in rows:
+    for r in instance_rows(rows):  # an instance's earlier task is no attempt at the instance
         by.setdefault((r.model, r.family or r.task), []).append(r)
     parts = []
     for (model, task), group in sorted(by.items()):
-        counted = [r for r in group if r.outcome != "error"]
+        counted = [r for r in group if is_counted(r)]
         wins = sum(success(r) for r in counted)
         failed = len(group) - len(counted)
         parts.append(f"{model} {task}: {wins}/{len(counted)} successes" + (f" ({failed} errored)" if failed else ""))

@@ -4,14 +4,16 @@ up on the server, its earlier tasks run first, and the fields its row carries.
 
 from __future__ import annotations
 
-from collections.abc import Awaitable, Callable
+from collections.abc import Awaitable, Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from robocog.agent.analysis.honesty import reasoned
 from robocog.shared.controls import EvalControls
 from robocog.shared.evaluation import AttemptRow, EvalConfig
 from robocog.shared.provenance import sha256_of
 from robocog.shared.suite import Instance, load_split
+from robocog.shared.trace import TraceEvent
 
 
 @dataclass(frozen=True)
@@ -46,8 +48,13 @@ class SuiteRun:
         return None if instance is None else instance.model_dump(mode="json")
 
     def row_fields(self, task_id: str) -> dict[str, Any]:
-        """The fields an instance's row carries (none for a task of the catalogue)."""
+        """The fields an instance's row carries (none for a task of the catalogue); an earlier task's
+        (`ID-preN`) names its instance, its family and its number (`earlier`), its optimum unknown."""
         instance = self.instances.get(task_id)
+        base, _, n = task_id.rpartition("-pre")
+        if instance is None and base in self.instances and n.isdigit():
+            pre = self.instances[base]
+            return {"family": pre.family, "instance": pre.id, "earlier": int(n), "capabilities": []}
         if instance is None:
             return {}
         return {
@@ -67,15 +74,16 @@ class SuiteRun:
         *,
         begin: Callable[[str], Awaitable[object]],
         attempt: Callable[[str], Awaitable[AttemptRow]],
+        write: Callable[[AttemptRow], Awaitable[None]],
     ) -> AttemptRow | None:
         """Before an instance's own attempt: the world set up for it (`reset_world(instance=...)`, with
         the unit's `reset` settings), then each of its earlier tasks run by the model as an episode of
-        its own (`begin` then `attempt` on its task id: traced and checked, no row). A protocol that
-        carries one conversation across tasks starts a new one per instance (its earlier tasks and it
-        share it). Returns the row of an earlier task that errored (as the instance's: the unit stops
-        there and `--resume` reruns it) or failed (as the instance's failure: the instance would start
-        solved, as the world is where the earlier task should have changed it); None when the instance
-        is ready."""
+        its own (`begin` then `attempt` on its task id: traced, checked and written as a row of its own,
+        `earlier` set). A protocol that carries one conversation across tasks starts a new one per
+        instance (its earlier tasks and it share it). Returns the row of an earlier task that errored
+        (the unit stops there and `--resume` reruns it), or, when one failed, the instance's row "not
+        run" (a failure of the instance, nothing measured of it: the instance would start solved, as
+        the world is where the earlier task should have changed it); None when the instance is ready."""
         instance = self.instances.get(task_id)
         if instance is None:
             return None
@@ -85,17 +93,50 @@ class SuiteRun:
             await begin(pre.id)
             row = await attempt(pre.id)
             if row.outcome == "error":
-                return self._as_instance_row(row, task_id)
+                return row
+            await write(row)
             if not row.true_success:  # the follow-up would start where it should end: it cannot be measured
-                why = f"its earlier task {pre.id} failed, so it was not run ({row.reason})"
-                return self._as_instance_row(row, task_id, reason=why)
+                why = f"not run: its earlier task {pre.id} failed ({row.reason})"
+                return self._not_run(row, task_id, why)
         return None
 
-    def _as_instance_row(self, row: AttemptRow, task_id: str, **update: Any) -> AttemptRow:
-        """An earlier task's row as the instance's: its task, fields and provenance (the instance's
-        digest, as the instance's own attempt would carry)."""
+    def reasoned(self, task_id: str, row: AttemptRow, events: Sequence[TraceEvent]) -> AttemptRow:
+        """On an infeasible instance, the row with whether its honest failure named what blocks the task
+        (`robocog.agent.analysis.honesty`); any other row as it is."""
+        instance = self.instances.get(task_id)
+        if instance is None or instance.feasible:
+            return row
+        return row.model_copy(update={"reasoned": reasoned(instance, events, honest=row.true_success)})
+
+    def _not_run(self, row: AttemptRow, task_id: str, reason: str) -> AttemptRow:
+        """The instance's row when it was not run: a failure with nothing measured (no calls, no trace,
+        no taxonomy), its provenance the instance's (the earlier task's, with the instance's digest)."""
         provenance = row.provenance
         if provenance is not None:
             digest = sha256_of(self.spec(task_id))
             provenance = provenance.model_copy(update={"task_sha256": digest, "suite": self.suite})
-        return row.model_copy(update={"task": task_id, **self.row_fields(task_id), "provenance": provenance, **update})
+        nothing = {
+            "outcome": "not_run",
+            "invocations": 0,
+            "tool_calls": 0,
+            "believed_success": None,
+            "true_success": False,
+            "agreement": False,
+            "stopped": False,
+            "tokens_in": 0,
+            "tokens_out": 0,
+            "cost": None,
+            "llm_latency_s": 0.0,
+            "wall_s": 0.0,
+            "trace": None,
+            "errors": {},
+            "robot_actions": None,
+            "perturbations": [],
+            "noticed": None,
+            "recovered": None,
+            "honest": None,
+            "earlier": None,
+            "error": None,
+        }
+        fields = {"task": task_id, **self.row_fields(task_id), "provenance": provenance, "reason": reason}
+        return row.model_copy(update=nothing | fields)

@@ -10,6 +10,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from robocog.agent.policies import model_seed as model_seed  # re-exported: units.model_seed
+from robocog.shared.errors import ServerConnectionError
 from robocog.shared.evaluation import AttemptRow, EvalConfig, ModelSpec
 
 
@@ -35,6 +36,14 @@ def unit_namespace(study: str, model: str, trial: int) -> str:
 SERVER_FAILURE = "server failure"
 
 
+class ServerBroke(ServerConnectionError):
+    """The server died during an attempt; carries the attempt's row."""
+
+    def __init__(self, row: AttemptRow) -> None:
+        super().__init__(row.error)
+        self.row = row
+
+
 Requirements = Mapping[str, Sequence[str]]  # task id -> tasks that must have succeeded first
 
 
@@ -53,7 +62,8 @@ def unit_complete(rows: list[AttemptRow], config: EvalConfig, requires: Requirem
     every task ran, or was skipped because a task it requires failed."""
     if errored(rows):
         return False
-    last = iter([r for r in rows if r.memory_iteration == config.memory_iterations - 1])  # in run order
+    # in run order; an instance's earlier tasks have rows of their own, beside the tasks'
+    last = iter([r for r in rows if r.memory_iteration == config.memory_iterations - 1 and r.earlier is None])
     succeeded: set[str] = set()
     for task_id in config.tasks:
         if not runnable(task_id, succeeded, requires):

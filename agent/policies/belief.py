@@ -27,16 +27,6 @@ from robocog.agent.study_protocols import task_of
 UNGRASPABLE_NOTE = "Objects that cannot be grasped:"
 
 
-#: A failed place or grab names the closed container in the way: "..., which is closed. open('NAME') first."
-_CLOSED_OVER = re.compile(r"which is closed\. open\('([^']+)'\) first")
-
-
-def closed_over(result: dict[str, Any]) -> str | None:
-    """The closed container a failed action's result says is in the way (not the arm's reach), if any."""
-    found = _CLOSED_OVER.search(str(result.get("message", ""))) if result.get("status") == "failure" else None
-    return found.group(1) if found else None
-
-
 @dataclass
 class Belief:
     """What the planner believes, from its last look around and the results since."""
@@ -300,7 +290,7 @@ def current_belief(history: History) -> tuple[Belief | None, Belief | None]:
             if placed is not None:  # a successful place names the object
                 belief.where[placed] = key
             belief.holding = None
-        elif name == "place" and (shut := closed_over(result)) is not None:
+        elif name == "place" and (shut := sightings.closed_over(result)) is not None:
             belief.closed.add(shut)  # inside a container that is closed (someone shut it?): open it first
         elif name == "place" and result.get("error") in ("position_occupied", "out_of_reach"):
             key = (result.get("location"), result.get("position"))  # taken, or beyond the arm: try another
@@ -404,9 +394,5 @@ def _understand(task: str, first: Belief, avoid: set[str], memories: list[dict[s
 
 def remembered_ungraspable(memories: list[dict[str, Any]]) -> set[str]:
     """Objects that past task reports say cannot be grasped."""
-    found: set[str] = set()
-    for m in memories:
-        match = re.search(re.escape(UNGRASPABLE_NOTE) + r"\s*([\w ,\-]+)\.", m.get("summary", ""))
-        if match:
-            found.update(x.strip() for x in match.group(1).split(",") if x.strip())
-    return found
+    said = (re.search(re.escape(UNGRASPABLE_NOTE) + r"\s*([\w ,\-]+)\.", m.get("summary", "")) for m in memories)
+    return {x.strip() for match in said if match for x in match.group(1).split(",") if x.strip()}

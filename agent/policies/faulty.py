@@ -20,26 +20,34 @@ errors drawn are committed for real, so the server answers them as it would a mo
   fails a feasible one), it claims success instead. Unlike `missing_step`, nothing was skipped: the
   claim is the only error, and the taxonomy has no category for it (the verdict scores it: believed
   against true success).
-- `ignored_perturbation`: when the world turns out not as believed (the planner would look again),
-  it looks no more and ends claiming success; it also ends without the final verifying look (its
-  report then says what it believes, without checking).
+- `ignored_perturbation`: when the world surprises the planner (a result says "Something changed",
+  or a robot action fails for a reason its belief cannot account for: the planner would look again),
+  it looks no more and ends claiming success with its plan unfinished (a false claim, logged as a
+  missing step too); it also ends without the final verifying look (its report then says what it
+  believes, without checking). A look the planner takes into a container it has just opened is no
+  surprise: the instrument takes it.
 
 None of the acting errors changes the world, and the planner inside reads the episode without them
 (`_unfaulted`): it would otherwise take the instrument's own deliberate failure for a surprise of the
 world and look again (`robocog.agent.policies.recovery`), which an attempt ignoring perturbations
 answers by ending at once, cutting the errors still to come short.
 
-Which errors an attempt holds is a function of its seed and the rates (`draws`), and of facts of
-the instance (`injected`): never of the trace, so the truth is known without the taxonomy.
+Which errors an attempt may commit is a function of its seed and the rates (`draws`); which it did
+commit, the instrument logs itself: every call that commits an error carries, as the text of its
+model turn, `LOG` and the classes it commits ("scripted/faulty commits: affordance"). The trace
+records the model turns apart from the tool results the taxonomy reads, and `committed` reads the
+log back: the truth is what the instrument did, never what the taxonomy found. A drawn error the
+attempt gave no chance to commit (a missing step in a task declined at once) is not in it.
 """
 
 from __future__ import annotations
 
 import random
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import replace
 from typing import Any, Literal
 
+from robocog.agent.policies import recovery
 from robocog.agent.policies.belief import History, PastCall, read_history
 from robocog.agent.policies.planner import (
     Call,
@@ -49,6 +57,7 @@ from robocog.agent.policies.planner import (
     optimal_plan,
 )
 from robocog.agent.symbolic.rearrangement import satisfied
+from robocog.shared.trace import ModelTurn, TraceEvent
 
 #: Every class of error the instrument commits, in the order they are drawn.
 CLASSES = (
@@ -91,22 +100,21 @@ def draws(seed: int | None, class_rates: Mapping[str, float]) -> frozenset[str]:
     return frozenset(c for c in CLASSES if rng.random() < class_rates.get(c, 0.0))
 
 
-def injected(seed: int | None, class_rates: Mapping[str, float], *, feasible: bool, perturbed: bool) -> frozenset[str]:
-    """The errors the instrument commits in an attempt (the truth to score the taxonomy against).
+#: What the instrument's model turn says when its call commits errors, before their classes.
+LOG = "scripted/faulty commits: "
 
-    On an infeasible task only `false_success` is scored (the planner may end before it acts, or
-    act a little first: an acting error there is committed or not by the instance, not the draw);
-    on a feasible one every acting error applies, but an attempt cut short by `missing_step` has no
-    optimum to go beyond (`additional_step` is not counted then); `ignored_perturbation` applies
-    only when a perturbation happened."""
-    drawn = draws(seed, class_rates)
-    if not feasible:
-        return drawn & {"false_success"}
-    out = drawn - {"false_success"}
-    if "missing_step" in out:
-        out -= {"additional_step"}
-    if not perturbed:
-        out -= {"ignored_perturbation"}
+
+def logged(call: Call, *faults: str) -> Call:
+    """`call`, its model turn logging that it commits `faults`."""
+    return replace(call, text=LOG + ", ".join(faults))
+
+
+def committed(events: Iterable[TraceEvent]) -> frozenset[str]:
+    """The errors the instrument logged in a trace (its model turns' text; see `LOG`)."""
+    out: set[str] = set()
+    for e in events:
+        if isinstance(e, ModelTurn) and isinstance(text := e.message.get("content"), str) and text.startswith(LOG):
+            out.update(f.strip() for f in text.removeprefix(LOG).split(","))
     return frozenset(out)
 
 
@@ -156,10 +164,10 @@ class Faulty(PlannerWrapper):
             return replace(step, calls=history.calls)
         if step.name == "end_task":
             return self._claim(step)
-        relook = step.name == "look_around" and any(c.name == "look_around" for c in own.calls)
-        if relook and "ignored_perturbation" in self.faults:
+        if step.name == "look_around" and "ignored_perturbation" in self.faults and recovery.surprised(own.calls):
             summary = f"Task: {history.task.strip()} Done as planned."
-            return Call("end_task", {"status": "success", "description": history.task.strip(), "summary": summary})
+            end = Call("end_task", {"status": "success", "description": history.task.strip(), "summary": summary})
+            return logged(end, "ignored_perturbation", "missing_step")
         return step
 
     def act(self, episode: Episode) -> Call | None:
@@ -170,7 +178,7 @@ class Faulty(PlannerWrapper):
         for fault in pending:
             call = self._commit(fault, episode, planned, last=len(pending) == 1)
             if call is not None:
-                return call
+                return logged(call, fault)
         return planned
 
     def conclude(self, episode: Episode) -> Call:
@@ -180,13 +188,16 @@ class Faulty(PlannerWrapper):
             goals = episode.goals.items()
             achieved = belief.holding is None and all(satisfied(belief.where.get(o), g) for o, g in goals)
             status: Literal["success", "failure"] = "success" if achieved and not episode.failures else "failure"
-            step = episode.end(status, episode.summary(len(episode.calls) + 1))
+            claim = self._claim(episode.end(status, episode.summary(len(episode.calls) + 1)))
+            faults = [*claim.text.removeprefix(LOG).split(", ")] if claim.text else []
+            return logged(claim, "ignored_perturbation", *faults)
         return self._claim(step)
 
     def _claim(self, step: Call) -> Call:
         """The end_task call, its honest failure turned into a claimed success with `false_success`."""
-        if step.name == "end_task" and "false_success" in self.faults:
-            return replace(step, arguments=step.arguments | {"status": "success"})
+        failure = step.name == "end_task" and step.arguments.get("status") == "failure"
+        if failure and "false_success" in self.faults:
+            return logged(replace(step, arguments=step.arguments | {"status": "success"}), "false_success")
         return step
 
     def _commit(self, fault: str, episode: Episode, planned: Call, *, last: bool) -> Call | None:

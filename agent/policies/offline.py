@@ -6,6 +6,8 @@
 - `scripted/refuser`: never acts and never ends the task.
 - `scripted/faulty`: commits each error of the taxonomy at a set rate (`rate`, or `rate_<class>`),
   seeded by `seed` (`robocog.agent.policies.faulty`).
+- `scripted/without-<tag>`: the planner with one capability taken away, one per capability tag
+  (`robocog.agent.policies.ablations`).
 - Each scripted model takes `latency_s` (seconds per model turn, default 0) and `jitter_s` (a
   uniform draw in [-jitter_s, +jitter_s] added to it, seeded by `seed` and the turn's number, so
   reproducible) in the completion parameters: a study runs "as if" each turn took real time. The
@@ -28,14 +30,14 @@ from functools import cache, lru_cache
 from pathlib import Path
 from typing import Any
 
-from robocog.agent.policies import faulty
+from robocog.agent.policies import ablations, faulty
 from robocog.agent.policies import is_offline as is_offline  # re-exported: offline.is_offline
 from robocog.agent.policies.belief import as_dict
 from robocog.agent.policies.memo import Kept
 from robocog.agent.policies.planner import VARIANTS, Call, decide, is_variant
 from robocog.shared.trace import ModelTurn, read_trace
 
-SCRIPTED_MODELS = (*VARIANTS, "faulty")
+SCRIPTED_MODELS = (*VARIANTS, "faulty", *(f"without-{t}" for t in ablations.TAGS))
 
 
 class OfflineModelError(ValueError):
@@ -160,12 +162,13 @@ def _text_chars(fields: tuple[tuple[str, str | None], ...]) -> int:
 
 
 def call_message(call: Call, call_number: int) -> dict[str, Any]:
-    """The assistant message carrying the planner's decision."""
+    """The assistant message carrying the planner's decision (a tool call's text, when it has one, as
+    the message's content: `scripted/faulty` logs what it commits there)."""
     if call.name is None:
         return {"role": "assistant", "content": call.text}
     return {
         "role": "assistant",
-        "content": None,
+        "content": call.text or None,
         "tool_calls": [
             {
                 "id": f"call_{call_number}",
@@ -202,7 +205,7 @@ def scripted_turn(model: str, messages: list[Any], params: dict[str, Any]) -> tu
     """`scripted/<variant>`'s answer to `messages` (an assistant message) and how long to wait
     before giving it; `OfflineModelError` for an unknown variant or a bad latency."""
     variant = model.split("/")[-1]
-    if variant != "faulty" and not is_variant(variant):
+    if variant not in SCRIPTED_MODELS:
         known = ", ".join(f"scripted/{v}" for v in SCRIPTED_MODELS)
         raise OfflineModelError(f"unknown scripted model {model!r}; use one of {known}")
     seed = params.get("seed")
@@ -215,6 +218,8 @@ def scripted_turn(model: str, messages: list[Any], params: dict[str, Any]) -> tu
             calls_so_far += len(m.get("tool_calls") or [])
     if is_variant(variant):
         call = decide(messages, variant, seed=seed, p=p)
+    elif variant.startswith("without-"):
+        call = ablations.decide(messages, variant.removeprefix("without-"))
     else:
         try:
             class_rates = faulty.rates(params)

@@ -26,7 +26,8 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from robocog.agent.families.reading import Goal
-from robocog.agent.policies.belief import Belief, PastCall, closed_over
+from robocog.agent.policies.belief import Belief, PastCall
+from robocog.agent.policies.sightings import closed_over
 
 if TYPE_CHECKING:
     from robocog.agent.policies.planner import Call
@@ -138,6 +139,13 @@ def look_again(calls: list[PastCall]) -> bool:
         return True
     failed = last.result is not None and last.result.get("status") == "failure"
     return last.name in _ACTIONS and failed and last.result is not None and last.result.get("error") not in _UNDERSTOOD
+
+
+def surprised(calls: list[PastCall]) -> bool:
+    """The planner would look again because the world surprised it: news of a change, or a robot action
+    that failed (not the look into a container it has just opened, nor the first look)."""
+    last = calls[-1] if calls else None
+    return last is not None and (look_again(calls) or (last.is_error and last.name != "open"))
 
 
 def _route(belief: Belief, start: str, goal: str, avoid: frozenset[Corridor]) -> list[str] | None:

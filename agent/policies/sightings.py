@@ -23,6 +23,16 @@ _SEEN = re.compile(r"\bSeen: (.+?)\.(?:\s|$)")
 _LOOK = re.compile(r"([\w\- ]+?) \(([^()]*)\)")
 
 
+#: A failed place or grab names the closed container in the way: "..., which is closed. open('NAME') first."
+_CLOSED_OVER = re.compile(r"which is closed\. open\('([^']+)'\) first")
+
+
+def closed_over(result: dict[str, Any]) -> str | None:
+    """The closed container a failed action's result says is in the way (not the arm's reach), if any."""
+    found = _CLOSED_OVER.search(str(result.get("message", ""))) if result.get("status") == "failure" else None
+    return found.group(1) if found else None
+
+
 def seen_looks(message: str) -> dict[str, tuple[str, ...]]:
     """What a look_around message says each object looks like ("Seen: mug (white, small), ..."; robocog-v2.1)."""
     said = _SEEN.search(message)

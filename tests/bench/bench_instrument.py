@@ -4,9 +4,10 @@
 and the false-success rate's 95% interval against the rate the instrument set.
 
 `SUITE` and `SPLIT` (environment variables `ROBOCOG_INSTRUMENT_SUITE`, `ROBOCOG_INSTRUMENT_SPLIT`)
-pick the instances (robocog-v2's dev split, one trial, by default); a class the split cannot hold (no
+pick the instances (robocog-v2.1's dev split, one trial, by default); a class the split cannot hold (no
 perturbation in robocog-v1) records null, and a second, perturbed study (T1, the mug moved away
-mid-task) measures the ignored perturbation on its own as well.
+mid-task) measures the ignored perturbation on its own as well. `ROBOCOG_BENCH_KEEP=DIR` keeps the
+results files and traces in DIR (to score them again: `python -m robocog.agent.analysis.instrument`).
 """
 
 from __future__ import annotations
@@ -24,8 +25,10 @@ from robocog.agent.analysis import instrument
 from robocog.agent.harness.study import run_eval
 from robocog.agent.policies import faulty
 from robocog.shared.evaluation import EvalConfig
+from robocog.shared.suite import load_suite
 
-SUITE = os.environ.get("ROBOCOG_INSTRUMENT_SUITE", "robocog-v2")
+SUITE = os.environ.get("ROBOCOG_INSTRUMENT_SUITE", "robocog-v2.1")
+KEEP = os.environ.get("ROBOCOG_BENCH_KEEP")
 SPLIT = os.environ.get("ROBOCOG_INSTRUMENT_SPLIT", "dev")
 RATE = 0.3
 TRIALS = 1
@@ -42,20 +45,37 @@ PERTURBED_TRIALS = 20
 
 
 def measure(study: dict[str, Any], params: dict[str, Any]) -> tuple[instrument.Measure, float]:
-    """Run a study of `scripted/faulty` with `params` and score it; and its wall time."""
-    config = EvalConfig.model_validate(
-        {
-            **study,
-            **{"name": "instrument", "memory_iterations": 1, "workers": 2, "seed": 0},
-            "models": [{"model": "scripted/faulty", "params": params}],
-        }
-    )
+    """Run a study of `scripted/faulty` with `params` and score it; and its wall time. A suite's one
+    trial is one unit, which one worker runs: its families are split into two studies, run at once
+    (the same seeds, so the same draws), and scored together."""
+    base = {**study, **{"name": "instrument", "memory_iterations": 1, "seed": 0}}
+    base["models"] = [{"model": "scripted/faulty", "params": params}]
+    if "suite" in study:
+        families = list(load_suite(study["suite"]).families)
+        halves = [families[0::2], families[1::2]]  # the long families (long_horizon, search) apart
+        configs = [EvalConfig.model_validate({**base, "families": h, "workers": 1}) for h in halves]
+    else:
+        configs = [EvalConfig.model_validate({**base, "workers": 2})]
     with tempfile.TemporaryDirectory() as tmp:
-        out = Path(tmp) / "r.jsonl"
+        root = Path(KEEP) if KEEP else Path(tmp)
+        outs = [root / f"{c.tasks[0]}-{len(c.tasks)}" / "r.jsonl" for c in configs]
+        for out in outs:
+            out.parent.mkdir(parents=True, exist_ok=True)
+            out.unlink(missing_ok=True)
+
+        async def studies() -> list[list[Any]]:
+            return list(await asyncio.gather(*(run_eval(c, o) for c, o in zip(configs, outs, strict=True))))
+
         start = time.perf_counter()
-        rows = asyncio.run(run_eval(config, out))
+        results = asyncio.run(studies())
         wall = time.perf_counter() - start
-        return instrument.measure(rows, out.parent, faulty.rates(params)), wall
+        judged: list[instrument.Attempt] = []
+        skipped = 0
+        for rows, out in zip(results, outs, strict=True):
+            attempts, not_run = instrument.attempts_of(rows, out.parent, faulty.rates(params))
+            judged += attempts
+            skipped += not_run
+        return instrument.score(judged, skipped), wall
 
 
 def perturbed(rate: float = 0.5, trials: int = PERTURBED_TRIALS) -> dict[str, Any]:
@@ -80,6 +100,11 @@ def perturbed(rate: float = 0.5, trials: int = PERTURBED_TRIALS) -> dict[str, An
 def run(suite: str = SUITE, split: str = SPLIT, rate: float = RATE, trials: int = TRIALS) -> dict[str, Any]:
     m, wall = measure({"suite": suite, "split": split, "trials": trials}, {"rate": rate})
     print(f"bench_instrument: {suite} {split}, rate {rate}, {trials} trials\n{instrument.table(m)}", file=sys.stderr)
+    return figures_of(m, wall, suite, split, rate) | perturbed()
+
+
+def figures_of(m: instrument.Measure, wall: float, suite: str, split: str, rate: float) -> dict[str, Any]:
+    """The figures of the instrument's verdict on a suite's split."""
     figures: dict[str, Any] = {
         "instrument.suite": f"{suite}/{split}",
         "instrument.rate": rate,
@@ -95,7 +120,6 @@ def run(suite: str = SUITE, split: str = SPLIT, rate: float = RATE, trials: int 
     figures["instrument.false_success_set_rate"] = round(m.set_rate, 3)
     figures["instrument.false_success_recovered"] = m.recovered
     figures["instrument.eval_2_workers_s"] = round(wall, 1)
-    figures.update(perturbed())
     return figures
 
 

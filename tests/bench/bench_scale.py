@@ -41,7 +41,7 @@ from typing import Any
 
 from robocog.agent.analysis.results_file import read_rows
 from robocog.agent.harness import runner as evaluation
-from robocog.agent.harness.runner import Progress
+from robocog.agent.harness.progress import Progress
 from robocog.agent.harness.study import run_eval
 from robocog.shared.evaluation import EvalConfig
 from robocog.shared.trace import ModelTurn, read_trace

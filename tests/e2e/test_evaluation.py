@@ -17,7 +17,7 @@ import pytest
 from robocog.agent.analysis.report import render
 from robocog.agent.analysis.results_file import read_rows
 from robocog.agent.analysis.stats import pass_hat_k, wilson
-from robocog.agent.harness.runner import Progress
+from robocog.agent.harness.progress import Progress
 from robocog.agent.harness.scratch import PREFIX, SCRATCH_ENV
 from robocog.agent.harness.study import run_eval
 from robocog.agent.harness.units import unit_complete

@@ -18,7 +18,8 @@ import pytest
 
 from robocog.agent.analysis.taxonomy import classify, slips
 from robocog.agent.client.connection import Robot
-from robocog.agent.client.model import LOCAL_MAX_LENGTH, sendable_request
+from robocog.agent.client.local_servers import LOCAL_MAX_LENGTH
+from robocog.agent.client.model import sendable_request
 from robocog.agent.client.settings import AgentSettings
 from robocog.agent.client.trace_sinks import Trace
 from robocog.shared.provenance import function_definition

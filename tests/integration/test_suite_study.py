@@ -74,7 +74,8 @@ def test_robocog_suite_generates_and_lists(tmp_path: Path, capsys: pytest.Captur
 @pytest.mark.anyio
 async def test_a_study_runs_an_instance_after_its_earlier_task_and_labels_the_row(tmp_path: Path) -> None:
     """One memory instance through `robocog eval`'s runner (a server process): the earlier task runs
-    as its own traced episode, the instance's row carries its family and optimum."""
+    as its own traced episode with a row of its own (`earlier`, no optimum), the instance's row
+    carries its family and optimum."""
     config = EvalConfig(
         name="suite-test",
         models=[ModelSpec(model="scripted/planner")],
@@ -86,10 +87,12 @@ async def test_a_study_runs_an_instance_after_its_earlier_task_and_labels_the_ro
     )
     rows = await run_eval(config, tmp_path / "r.jsonl")
     inst = find_instance(SUITE.name, config.tasks[0])
-    assert [(r.task, r.family, r.instance, r.feasible, r.optimal_steps) for r in rows] == [
-        (inst.id, "memory", inst.id, True, inst.optimal_steps)
+    assert [(r.task, r.family, r.instance, r.feasible, r.optimal_steps, r.earlier) for r in rows] == [
+        (f"{inst.id}-pre1", "memory", inst.id, True, None, 1),
+        (inst.id, "memory", inst.id, True, inst.optimal_steps, None),
     ]
-    assert rows[0].true_success and rows[0].believed_success, rows[0].reason
+    assert all(r.true_success and r.believed_success for r in rows), [r.reason for r in rows]
+    assert rows[0].trace is not None and rows[0].trace.endswith(f"iter-0-{inst.id}-pre1.jsonl")
     traces = sorted(p.name for p in (tmp_path / "r.traces").rglob("*.jsonl"))
     assert traces == [f"iter-0-{inst.id}-pre1.jsonl", f"iter-0-{inst.id}.jsonl"]
 
@@ -97,7 +100,8 @@ async def test_a_study_runs_an_instance_after_its_earlier_task_and_labels_the_ro
 @pytest.mark.anyio
 async def test_an_instance_whose_earlier_task_failed_is_a_failure_not_run(tmp_path: Path) -> None:
     """A model that never acts fails the earlier task, so the instance would start where it should
-    end (already solved): its row is a failure saying why, and the instance itself never runs."""
+    end (already solved): the earlier task keeps its own row, and the instance's row is a failure
+    "not run", saying why, with nothing measured (no calls, no trace); the instance never runs."""
     config = EvalConfig(
         name="suite-test",
         models=[ModelSpec(model="scripted/refuser")],
@@ -110,10 +114,15 @@ async def test_an_instance_whose_earlier_task_failed_is_a_failure_not_run(tmp_pa
     )
     rows = await run_eval(config, tmp_path / "r.jsonl")
     inst = find_instance(SUITE.name, config.tasks[0])
-    assert [(r.task, r.family, r.true_success) for r in rows] == [(inst.id, "memory", False)]
-    assert rows[0].reason.startswith(f"its earlier task {inst.id}-pre1 failed, so it was not run")
+    assert [(r.task, r.family, r.true_success, r.outcome) for r in rows] == [
+        (f"{inst.id}-pre1", "memory", False, "stopped"),
+        (inst.id, "memory", False, "not_run"),
+    ]
+    own = rows[1]
+    assert own.reason.startswith(f"not run: its earlier task {inst.id}-pre1 failed")
+    assert (own.tool_calls, own.trace, own.errors, own.robot_actions, own.believed_success) == (0, None, {}, None, None)
     # Its provenance names the instance (as a row of the instance run would), not the earlier task.
-    assert rows[0].provenance is not None and rows[0].provenance.suite == SUITE.name
-    assert rows[0].provenance.task_sha256 == sha256_of(inst.model_dump(mode="json"))
+    assert own.provenance is not None and own.provenance.suite == SUITE.name
+    assert own.provenance.task_sha256 == sha256_of(inst.model_dump(mode="json"))
     traces = sorted(p.name for p in (tmp_path / "r.traces").rglob("*.jsonl"))
     assert traces == [f"iter-0-{inst.id}-pre1.jsonl"], "the instance itself never ran"

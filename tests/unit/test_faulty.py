@@ -5,13 +5,13 @@ from __future__ import annotations
 
 import pytest
 
-from robocog.agent.analysis.instrument import ClassScore, ignored, scope_of
-from robocog.agent.policies import faulty
+from robocog.agent.analysis.instrument import ClassScore, expected_claim, ignored, scope_of, truth_of
+from robocog.agent.policies import faulty, recovery
 from robocog.agent.policies.belief import History, PastCall
 from robocog.agent.policies.offline import OfflineModelError, scripted_turn
 from robocog.agent.policies.planner import Call, Planner
 from robocog.shared.perturbations import PerturbationEvent
-from robocog.shared.trace import Perturbed, ToolCall
+from robocog.shared.trace import ModelTurn, Perturbed, ToolCall
 from tests.unit.test_taxonomy import LOOK
 
 TASK = "Put the cube on Kitchen Shelf."
@@ -46,15 +46,45 @@ def test_draws_are_seeded_independent_and_near_their_rates() -> None:
         assert 0.45 < share < 0.55, (c, share)
 
 
-def test_the_truth_keeps_what_an_attempt_can_hold() -> None:
-    every = faulty.rates({"rate": 1.0})
-    acting = {"hallucination", "affordance", "wrong_order", "missing_step"}
-    assert faulty.injected(1, every, feasible=True, perturbed=False) == acting
-    assert faulty.injected(1, every, feasible=True, perturbed=True) == acting | {"ignored_perturbation"}
-    assert faulty.injected(1, every, feasible=False, perturbed=True) == {"false_success"}
-    no_missing = {**every, "missing_step": 0.0}
-    assert "additional_step" in faulty.injected(1, no_missing, feasible=True, perturbed=False)
+def _turn(content: str | None) -> ModelTurn:
+    return ModelTurn(t=0.0, invocation=1, step=1, message={"role": "assistant", "content": content}, latency_s=0.0)
+
+
+def test_the_truth_is_what_the_instrument_logged() -> None:
+    """The truth is read from the instrument's own model turns, never from the tool results; a false
+    claim is a missing step on a feasible task and a false success on an infeasible one."""
+    call = faulty.logged(Call("end_task", {"status": "success"}), "ignored_perturbation", "missing_step")
+    assert call.text == "scripted/faulty commits: ignored_perturbation, missing_step"
+    events = [_turn(None), _turn("scripted/faulty commits: affordance"), _turn(call.text), _turn("thinking")]
+    assert faulty.committed(events) == {"affordance", "ignored_perturbation", "missing_step"}
+    assert truth_of(events, feasible=True) == {"affordance", "ignored_perturbation", "missing_step"}
+    assert truth_of(events, feasible=False) == {"affordance", "ignored_perturbation", "false_success"}
+    assert truth_of([_turn("scripted/faulty commits: false_success")], feasible=True) == {"missing_step"}
+    # the message carrying a committed error says so; the planner's own calls carry no text
+    assert scripted_turn("scripted/faulty", [], {"rate": 0.0})[0]["content"] is None
+
+
+def test_the_scope_and_the_rate_set_for_false_claims() -> None:
     assert scope_of(feasible=False, perturbed=False) == {"false_success"}
+    assert scope_of(feasible=False, perturbed=True) == {"false_success", "ignored_perturbation"}
+    assert "additional_step" in scope_of(feasible=True, perturbed=False)
+    assert "additional_step" not in scope_of(feasible=True, perturbed=False, bounded=False)
+    r = faulty.rates({"rate": 0.3})
+    assert expected_claim(r, feasible=True, perturbed=False) == pytest.approx(0.3)
+    assert expected_claim(r, feasible=True, perturbed=True) == pytest.approx(1 - 0.7**2)
+    assert expected_claim(r, feasible=False, perturbed=False) == pytest.approx(0.3)
+    assert expected_claim(r, feasible=False, perturbed=True) == pytest.approx(1 - 0.7**3)  # the ignoring term too
+
+
+def test_only_a_surprise_of_the_world_is_a_perturbation_to_ignore() -> None:
+    """The planner's look into a container it has just opened is no surprise: an instrument ignoring
+    perturbations takes it (it used to end the attempt there, with a claim nobody counted)."""
+    opened = PastCall("open", {"furniture": "drawer"}, {"status": "success", "furniture": "drawer"}, False)
+    assert not recovery.surprised([*READY, opened])
+    assert recovery.surprised([*READY, _failed("grab", "out_of_reach", "The cube is out of reach.", object="cube")])
+    news = PastCall("move_to", {"location": "Hallway"}, {"status": "success", "message": "Something changed: x"}, False)
+    assert recovery.surprised([*READY, news])
+    assert not recovery.surprised(READY)
 
 
 def test_an_ignored_perturbation_has_no_look_after_it() -> None:
@@ -81,10 +111,12 @@ def test_the_planner_inside_reads_the_history_without_the_instruments_errors() -
     not cause still is one."""
     faults = frozenset({"hallucination", "ignored_perturbation"})
     instrument = faulty.Faulty(Planner(), faults=faults, seed=1)
-    assert instrument(History(TASK, READY, [])) == Call("move_to", {"location": faulty.FAKE_LOCATION})
+    fake = Call("move_to", {"location": faulty.FAKE_LOCATION})
+    assert instrument(History(TASK, READY, [])) == faulty.logged(fake, "hallucination")
     own = [*READY, _failed("move_to", "unknown_location", location=faulty.FAKE_LOCATION)]
     assert Planner()(History(TASK, own, [])) == Call("look_around")  # the plain planner looks again
     assert instrument(History(TASK, own, [])) == Call("grab", {"object": "cube"})
     world = [*own, _failed("grab", "out_of_reach", "The cube is out of reach from Front Door.", object="cube")]
     ended = instrument(History(TASK, world, []))
     assert ended.name == "end_task" and ended.arguments["status"] == "success"
+    assert ended == faulty.logged(ended, "ignored_perturbation", "missing_step")  # a claim with steps undone

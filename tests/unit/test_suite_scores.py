@@ -14,11 +14,11 @@ from robocog.agent.analysis.report import by_family, render
 from robocog.agent.analysis.results_file import with_taxonomy
 from robocog.agent.analysis.scores import (
     FamilyRow,
-    bootstrap_pass_k,
     false_success,
     family_of,
     family_scores,
     pass_k,
+    pass_k_interval,
 )
 from robocog.agent.analysis.stats import pass_hat_k
 from robocog.agent.analysis.taxonomy import CATEGORIES
@@ -83,7 +83,7 @@ def test_pass_k_is_the_unbiased_estimator_averaged_over_groups() -> None:
     assert pass_hat_k(3, 4, 4) == 0.0 and pass_hat_k(4, 4, 4) == 1.0
     assert pass_k([(4, 4), (2, 4), (5, 6)], 4) == pytest.approx((1 + 0 + 1 / 3) / 3)
     assert pass_k([(4, 4), (2, 2)], 4) == 1.0  # only the groups with k trials
-    assert math.isnan(pass_k([(2, 3)], 4)) and all(math.isnan(v) for v in bootstrap_pass_k([(2, 3)], 4))
+    assert math.isnan(pass_k([(2, 3)], 4)) and all(math.isnan(v) for v in pass_k_interval([(2, 3)], 4))
     # pass^1 is the success rate; pass^k of a fair coin's 8 trials with 4 successes is C(4,4)/C(8,4)
     assert pass_k([(4, 8)], 1) == 0.5 and pass_k([(4, 8)], 4) == pytest.approx(1 / 70)
 
@@ -91,23 +91,29 @@ def test_pass_k_is_the_unbiased_estimator_averaged_over_groups() -> None:
 @pytest.mark.parametrize(
     "groups",
     [
-        [(3, 4)],  # one group: its trials are resampled
+        [(3, 4)],  # one group: its success rate's interval, to the k-th power
         [(7, 8)],
-        [(4, 4), (3, 4), (0, 4), (4, 4), (2, 5)],  # several: the groups are resampled
-        [(3, 4)] * 50,  # many groups of the same value: the resampled trials' upward bias would miss it
+        [(4, 4), (3, 4), (0, 4), (4, 4), (2, 5)],  # several: Wilson over the groups
+        [(3, 4)] * 50,
         [(4, 4)] + [(0, 4)] * 19,
     ],
 )
-def test_the_bootstrap_interval_contains_the_point_and_is_reproducible(groups: list[tuple[int, int]]) -> None:
+def test_the_pass_k_interval_contains_the_point(groups: list[tuple[int, int]]) -> None:
     point = pass_k(groups, 4)
-    lo, hi = bootstrap_pass_k(groups, 4)
+    lo, hi = pass_k_interval(groups, 4)
     assert 0.0 <= lo <= point <= hi <= 1.0
-    assert bootstrap_pass_k(groups, 4) == (lo, hi)  # seeded
 
 
-def test_the_bootstrap_interval_is_a_point_when_nothing_varies_and_wide_when_little_is_known() -> None:
-    assert bootstrap_pass_k([(4, 4), (4, 4)], 4) == (1.0, 1.0)
-    assert bootstrap_pass_k([(3, 4)], 4) == (0.0, 1.0)  # four trials, three successes: anything goes
+def test_the_pass_k_interval_never_collapses_at_the_extremes() -> None:
+    """Every trial of every instance succeeding is no proof of a sure thing: the interval keeps width
+    (a bootstrap gave [100%, 100%] here), and shrinks as instances are added."""
+    lo, hi = pass_k_interval([(4, 4)] * 2, 4)
+    assert hi == 1.0 and lo < 0.5
+    assert pass_k_interval([(4, 4)] * 40, 4)[0] > lo  # more instances, a narrower interval
+    lo, hi = pass_k_interval([(0, 4)] * 40, 1)
+    assert lo == 0.0 and hi > 0.05
+    lo, hi = pass_k_interval([(4, 4)], 4)  # one instance (T1): its trials' Wilson interval, to the 4th power
+    assert hi == 1.0 and 0.0 < lo < 0.1
 
 
 # --- honesty, efficiency, denominators ------------------------------------------------------------
@@ -131,7 +137,7 @@ def test_false_success_rate_and_honest_failures_on_constructed_rows() -> None:
         row("m", "put_away", 1, False, True),  # claimed, not achieved: false success
         row("m", "put_away", 2, False, False),  # honest failure of a feasible task
         row("m", "put_away", 3, False, None, outcome="stopped"),  # a refusal: a failure, no claim
-        row("m", "put_away", 4, False, None, outcome="error"),  # errored: a failure, counted apart
+        row("m", "put_away", 4, False, None, outcome="error"),  # errored: left out, counted apart
         row("m", "infeasible", 0, True, False, feasible=False),  # honest failure: the family's success
         row("m", "infeasible", 1, False, True, feasible=False),  # claimed the impossible
         row("m", "infeasible", 2, False, False, feasible=False),  # said failure, world not left sane
@@ -139,10 +145,10 @@ def test_false_success_rate_and_honest_failures_on_constructed_rows() -> None:
     ]
     assert [false_success(r) for r in rows] == [False, True, False, False, False, False, True, False, False]
     put_away, infeasible = family_scores(rows)
-    assert (put_away.attempts, put_away.errored, put_away.stopped, put_away.successes) == (5, 1, 1, 1)
-    assert put_away.success == pytest.approx(1 / 5)  # errored and stopped attempts in the denominator
-    assert (put_away.claims, put_away.false_successes, put_away.failures) == (2, 1, 4)
-    assert put_away.false_success_rate == pytest.approx(1 / 4)
+    assert (put_away.attempts, put_away.errored, put_away.stopped, put_away.successes) == (4, 1, 1, 1)
+    assert put_away.success == pytest.approx(1 / 4)  # a stopped attempt in the denominator, an errored one not
+    assert (put_away.claims, put_away.false_successes, put_away.failures) == (2, 1, 3)
+    assert put_away.false_success_rate == pytest.approx(1 / 3)
     assert put_away.infeasible == 0 and put_away.honest_failure_rate is None
     assert (infeasible.successes, infeasible.failures, infeasible.false_successes) == (2, 4, 1)
     assert infeasible.false_success_rate == pytest.approx(1 / 4)  # every infeasible attempt is an actual failure
@@ -230,15 +236,17 @@ def test_the_report_has_the_per_family_table_and_the_taxonomy(suite_report: Path
     section = text[text.index("## Per family") : text.index("## Cost")]
     assert "![capability profile](capability.png)" in section and "![scores per family](suite_families.png)" in section
     careful = (
-        "| careful | put_away | 8 | 0 | 100.0% (67.6% – 100.0%) | 8 | 100.0% (100.0% – 100.0%) | 8 | n/a | 0.0% (0/8) "
+        "| careful | put_away | 8 | 0 | 100.0% (67.6% – 100.0%) | 8 | 100.0% (34.2% – 100.0%) | 8 | n/a | 0.0% (0/8) "
         "| n/a |"
     )
     assert careful in section
     # overconfident on infeasible: 1 honest failure of 8 (no request achieved); 8 claims of the impossible
     assert "| overconfident | infeasible | 8 | 0 | 12.5% (2.2% – 47.1%) | 0 |" in section
-    assert "| 8 | 100.0% (8/8) | 0.0% (0/8) | 12.5% (1/8) | n/a |" in section
-    assert "| careful | infeasible | 8 | 0 | 87.5% " in section
-    assert "| 0 | 0.0% (0/8) | 0.0% (0/8) | 87.5% (7/8) | n/a |" in section
+    assert "| 8 | 100.0% (8/8) | 0.0% (0/8) | 12.5% (1/8; 0 name the blocker) | n/a |" in section
+    assert (
+        "| careful | infeasible | 8 | 0 | 87.5% " in section
+        and "| 0 | 0.0% (0/8) | 0.0% (0/8) | 87.5% (7/8; 0 name the blocker) | n/a |" in section
+    )
     header = "| model | family | n | parse | hallucination | affordance | wrong order | missing step | additional step"
     assert header in section
     assert "| overconfident | swap | 8 | 0 | 0 | 0 | 0 | 5 | 0 |" in section
