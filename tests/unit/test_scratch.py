@@ -151,10 +151,17 @@ with memory_dir(Path(sys.argv[1]), keep_memory=False) as path:
 """
 
 
+def _sigint_default() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _start_study(ram: Path, tmp_path: Path, *wrapper: str, brief: bool = False) -> tuple[subprocess.Popen[str], Path]:
     env = {**os.environ, SCRATCH_ENV: str(ram)}
     args = [*wrapper, sys.executable, "-c", _STUDY, str(tmp_path / "r.work"), *(["brief"] if brief else [])]
-    proc = subprocess.Popen(args, stdout=subprocess.PIPE, text=True, env=env)
+    # A study is started as a shell starts one in the foreground: with SIGINT's default action. A
+    # child inherits an ignored SIGINT (pytest itself run as a background job of a script has it
+    # ignored, and its test then timed out); a study started that way keeps ignoring it, by design.
+    proc = subprocess.Popen(args, stdout=subprocess.PIPE, text=True, env=env, preexec_fn=_sigint_default)
     assert proc.stdout is not None
     path = Path(proc.stdout.readline().strip())
     assert path.name.startswith(PREFIX), path
