@@ -42,12 +42,17 @@ def test_end_task_on_a_removed_memory_says_why_and_the_server_goes_on(tmp_path: 
         failed = _end_task(server)
         assert failed["isError"], failed
         text = failed["content"][0]["text"]  # type: ignore[index]
-        assert text == f"Error executing tool end_task: {MEMORY_FAILED}: attempt to write a readonly database", text
+        # The store's own reason ("attempt to write a readonly database" as a rule; Chroma's timing may
+        # give another first): one line after the marker, never a bare "Error executing tool end_task".
+        prefix = f"Error executing tool end_task: {MEMORY_FAILED}: "
+        assert text.startswith(prefix) and text[len(prefix) :].strip() and "\n" not in text, text
         assert server.call("look_around")["location"] == "Front Door"  # the server keeps answering
     finally:
         server.close()
     said = log.read_text(encoding="utf-8", errors="replace")
-    assert "attempt to write a readonly database" in said and "Traceback" not in said, said[-3000:]
+    reason = text[len(prefix) :].split()  # the log wraps its lines: the reason's words, all of them
+    assert MEMORY_FAILED in " ".join(said.split()) and all(w in said for w in reason), said[-3000:]
+    assert "Traceback" not in said, said[-3000:]
 
 
 @pytest.fixture
@@ -109,6 +114,9 @@ async def test_the_agent_loop_ends_the_attempt_on_a_memory_failure_with_its_reas
             robot.client, prompt, settings, trace, system_prompt=robot.system_prompt, tools=robot.tools
         )
     assert result.outcome == "error" and result.invocations == 1, result
-    assert result.error is not None and f"{MEMORY_FAILED}: attempt to write a readonly database" in result.error
+    # The reason is the store's own, and which one comes first depends on Chroma's timing ("attempt to
+    # write a readonly database", "Failed to get segments", ...): there is one, after the marker.
+    assert result.error is not None and f"{MEMORY_FAILED}: " in result.error, result.error
+    assert result.error.split(f"{MEMORY_FAILED}: ", 1)[1].strip(), result.error
     failed = [e for e in trace.events if isinstance(e, ToolResult) and e.is_error and MEMORY_FAILED in e.content]
     assert len(failed) == 1, failed
