@@ -59,7 +59,10 @@ def resolves(uv: str, stage: Path, requirements: Path, target: Target, python: s
     """None when the pinned requirements resolve from wheels alone for `target` and `python`, else
     uv's reason (its first line that says why)."""
     where = ["--python-platform", target.triple, "--python-version", python]
-    quiet = ["--no-header", "--no-annotate", "--quiet", "--output-file", os.devnull]
+    # A file of its own, not os.devnull: uv reads an existing output file back for its pins, and a
+    # newer uv fails on /dev/null ("Couldn't parse requirement in `/dev/null` at position 0").
+    resolved = requirements.with_name(f"resolved-{target.triple}-{python}.txt")
+    quiet = ["--no-header", "--no-annotate", "--quiet", "--output-file", str(resolved)]
     done = subprocess.run(
         [uv, "pip", "compile", str(requirements), "--only-binary", ":all:", *where, *quiet],
         cwd=stage,
