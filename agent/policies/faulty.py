@@ -45,7 +45,7 @@ from __future__ import annotations
 import random
 from collections.abc import Iterable, Mapping
 from dataclasses import replace
-from typing import Any, Literal
+from typing import Any
 
 from robocog.agent.policies import recovery
 from robocog.agent.policies.belief import History, PastCall, read_history
@@ -56,7 +56,6 @@ from robocog.agent.policies.planner import (
     PlannerWrapper,
     optimal_plan,
 )
-from robocog.agent.symbolic.rearrangement import satisfied
 from robocog.shared.trace import ModelTurn, TraceEvent
 
 #: Every class of error the instrument commits, in the order they are drawn.
@@ -184,11 +183,7 @@ class Faulty(PlannerWrapper):
     def conclude(self, episode: Episode) -> Call:
         step = self.inner.conclude(episode)
         if step.name == "look_around" and "ignored_perturbation" in self.faults:  # no verifying look
-            belief = episode.belief
-            goals = episode.goals.items()
-            achieved = belief.holding is None and all(satisfied(belief.where.get(o), g) for o, g in goals)
-            status: Literal["success", "failure"] = "success" if achieved and not episode.failures else "failure"
-            claim = self._claim(episode.end(status, episode.summary(len(episode.calls) + 1)))
+            claim = self._claim(episode.report())
             faults = [*claim.text.removeprefix(LOG).split(", ")] if claim.text else []
             return logged(claim, "ignored_perturbation", *faults)
         return self._claim(step)

@@ -8,11 +8,8 @@ order of calls changed, nothing else.
 
 from __future__ import annotations
 
-from typing import Literal
-
 from robocog.agent.policies.belief import History, PastCall
 from robocog.agent.policies.planner import ROBOT_ACTIONS, Call, Episode, Planner
-from robocog.agent.symbolic.rearrangement import satisfied
 
 
 class Verbose(Planner):
@@ -46,7 +43,4 @@ class Lean(Planner):
         return bool(calls) and (calls[-1].is_error or calls[-1].name == "open")
 
     def conclude(self, episode: Episode) -> Call:
-        belief = episode.belief
-        achieved = belief.holding is None and all(satisfied(belief.where.get(o), g) for o, g in episode.goals.items())
-        status: Literal["success", "failure"] = "success" if achieved and not episode.failures else "failure"
-        return episode.end(status, episode.summary(len(episode.calls) + 1))
+        return episode.report()

@@ -137,8 +137,13 @@ class Episode:
         return {o: why for o, why in items if not (self.request.all_items and o in self.ungraspable)}
 
     def end(self, status: Literal["success", "failure"], summary: str) -> Call:
-        """The end_task call with this status and summary."""
-        return _end(self.task, status, summary)
+        return _end(self.task, status, summary)  # the end_task call with this status and summary
+
+    def report(self) -> Call:
+        """The truthful end_task: success when the goals hold as believed and nothing failed."""
+        where, goals = self.belief.where, self.goals.items()
+        done = self.belief.holding is None and all(satisfied(where.get(o), g) for o, g in goals) and not self.failures
+        return self.end("success" if done else "failure", self.summary(len(self.calls) + 1))
 
     def summary(self, n: int) -> str:
         """The report: where the goal objects are, what cannot be grasped, what was not done."""
@@ -279,10 +284,7 @@ class Planner:
         """Nothing left to do: check with a last look, then report truthfully."""
         if episode.calls[-1].name != "look_around":
             return Call("look_around")
-        belief = episode.belief
-        achieved = belief.holding is None and all(satisfied(belief.where.get(o), g) for o, g in episode.goals.items())
-        status: Literal["success", "failure"] = "success" if achieved and not episode.failures else "failure"
-        return episode.end(status, episode.summary(len(episode.calls) + 1))
+        return episode.report()
 
 
 def _untried(episode: Episode) -> str | None:
