@@ -35,6 +35,8 @@ import zipfile
 from pathlib import Path
 from typing import Any
 
+#: Not part of a plain `make bench` (it would take its 90 minutes there): `make local-model` names it.
+NAMED_ONLY = True
 ROOT = Path(__file__).resolve().parents[2]
 HOME = ROOT / ".cache" / "local-model"
 VENV_PYTHON = HOME / "venv" / "bin" / "python"

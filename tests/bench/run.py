@@ -2,7 +2,8 @@
 
 Each `bench_*.py` module here has `run() -> dict`; `--only world,memory` picks some. `--record`
 merges the figures into docs/figures.json, the one place the docs read them from (`[[fig:KEY]]` in a
-page; docs/hooks/figures.py), each with the day it was measured.
+page; docs/hooks/figures.py), each with the day it was measured. A module with `NAMED_ONLY = True`
+runs only when `--only` names it (the local model's bench: about 90 minutes, `make local-model`).
 """
 
 from __future__ import annotations
@@ -59,6 +60,9 @@ def collect(wanted: set[str], figures: dict[str, object]) -> None:
         assert spec is not None and spec.loader is not None
         module = importlib.util.module_from_spec(spec)
         spec.loader.exec_module(module)
+        if not wanted and getattr(module, "NAMED_ONLY", False):
+            print(f"bench: {name} runs only when named (--only {name})", file=sys.stderr)
+            continue
         start = time.perf_counter()
         print(f"bench: {name} ...", file=sys.stderr, flush=True)
         figures.update(module.run())
