@@ -39,6 +39,7 @@ from mcp_types import (
 )
 from pydantic import ValidationError
 
+from robocog.server import compat
 from robocog.server.clients import (
     collecting,
     install_log_handlers,
@@ -152,7 +153,7 @@ def register_logging_and_subscriptions(mcp: MCPServer[AppState]) -> None:
         ctx.lifespan_context.clients.unsubscribe(ctx, str(params.uri))
         return EmptyResult()
 
-    lowlevel = mcp._lowlevel_server
+    lowlevel = compat.lowlevel(mcp)
     lowlevel.add_request_handler("logging/setLevel", SetLevelRequestParams, set_level)
     lowlevel.add_request_handler("resources/subscribe", SubscribeRequestParams, subscribe)
     lowlevel.add_request_handler("resources/unsubscribe", UnsubscribeRequestParams, unsubscribe)
@@ -167,7 +168,7 @@ DRIVER_RULE = {"issued": True, "handle": True}
 def publish_driver_rule(mcp: MCPServer[AppState]) -> None:
     """Declare `experimental["robocog/driver"]` in the server's capabilities, on every protocol
     generation (the SDK builds them in more than one place, all through `get_capabilities`)."""
-    lowlevel = mcp._lowlevel_server
+    lowlevel = compat.lowlevel(mcp)
     original = lowlevel.get_capabilities
 
     def get_capabilities(*args: Any, **kwargs: Any) -> Any:
@@ -202,12 +203,13 @@ def trace_only_when_traced(mcp: MCPServer[Any]) -> None:
     for every message (attributes, context extraction, about 0.1 ms a call), a no-op without a tracer
     provider. A provider installed before the server is built (as `opentelemetry-instrument` does, or
     `OTEL_PYTHON_TRACER_PROVIDER`) keeps it, and every call is a span as before."""
-    from mcp.server._otel import OpenTelemetryMiddleware
     from opentelemetry import trace
+
+    middleware = compat.otel_middleware()
 
     provider = trace.get_tracer_provider()
     if isinstance(provider, trace.ProxyTracerProvider | trace.NoOpTracerProvider):
-        mcp.middleware[:] = [m for m in mcp.middleware if not isinstance(m, OpenTelemetryMiddleware)]
+        mcp.middleware[:] = [m for m in mcp.middleware if not isinstance(m, middleware)]
 
 
 def build_server(

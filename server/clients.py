@@ -33,6 +33,7 @@ from mcp.server.context import ServerRequestContext
 from mcp_types import LOG_LEVEL_META_KEY, LoggingLevel, LoggingMessageNotification, LoggingMessageNotificationParams
 from mcp_types.version import MODERN_PROTOCOL_VERSIONS
 
+from robocog.server import compat
 from robocog.server.config import NOTICE
 
 #: The server's loggers (the agent's, in the same process, are left alone).
@@ -131,10 +132,8 @@ def install_log_handlers(stderr_level: str) -> None:
 
 
 def connection_of(ctx: ServerRequestContext[Any, Any]) -> Connection:
-    """The connection a request came on. mcp 2.3 gives request handlers a per-request session
-    proxy and no public way to its connection, which is what identifies a client."""
-    connection: Connection = ctx.session._connection
-    return connection
+    """The connection a request came on (what identifies a client)."""
+    return compat.connection_of(ctx.session)
 
 
 @dataclass(eq=False)

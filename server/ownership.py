@@ -49,6 +49,7 @@ from mcp.server.context import ServerRequestContext
 from mcp.server.mcpserver.exceptions import ToolError
 from mcp_types.version import MODERN_PROTOCOL_VERSIONS
 
+from robocog.server import compat
 from robocog.server.clients import connection_of
 from robocog.server.config import DEFAULT_SESSION_IDLE_S, UNCONFIRMED_IDLE_S
 from robocog.server.handles import DriverIds, fingerprint
@@ -108,7 +109,7 @@ class Driver:
             return cls(("stream", connection.outbound), client, None)
         handle = None if handle == "" else handle  # an empty robot_id is none
         named = handle if handle is not None else (ctx.meta or {}).get(DRIVER_META_KEY)
-        if _transport_kind(ctx) == "direct":  # the SDK's in-process client: same process, same trust
+        if compat.transport_kind(ctx.session) == "direct":  # the SDK's in-process client: same process, same trust
             if isinstance(named, str) and named:
                 return cls(("named", named[:200]), f"{client} (driver {named[:40]!r})", None)
             return cls(("client", client), client, None)
@@ -126,14 +127,6 @@ class Driver:
 
 #: The anonymous driver's key: every sessionless call without a handle on a one-robot server.
 ANONYMOUS = ("anonymous",)
-
-
-def _transport_kind(ctx: ServerRequestContext[Any, Any]) -> str | None:
-    """The SDK's name of the transport a request came on ("streamable-http", "jsonrpc", "direct" for
-    its in-process client); mcp 2.3 keeps it on the request's dispatch context."""
-    transport = getattr(getattr(ctx.session, "_request_outbound", None), "transport", None)
-    kind = getattr(transport, "kind", None)
-    return kind if isinstance(kind, str) else None
 
 
 class RobotLease:

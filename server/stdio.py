@@ -26,6 +26,7 @@ from typing import Any, cast
 from mcp.server.mcpserver import MCPServer
 from mcp.server.stdio import stdio_server
 
+from robocog.server import compat
 from robocog.server.world.sim import SHUTTING_DOWN
 
 #: The longest line (one JSON-RPC message) read from stdin; the SDK's own transport has no limit.
@@ -122,7 +123,7 @@ async def _loop_pipes() -> AsyncIterator[tuple[_Lines, _Writer] | None]:
 
 async def serve_stdio(server: MCPServer[Any]) -> None:
     """Serve `server` over this process's stdin and stdout until stdin ends."""
-    lowlevel = server._lowlevel_server
+    lowlevel = compat.lowlevel(server)
     async with _loop_pipes() as pipes:
         streams = stdio_server() if pipes is None else stdio_server(cast(Any, pipes[0]), cast(Any, pipes[1]))
         async with streams as (read_stream, write_stream):

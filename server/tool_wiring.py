@@ -14,7 +14,6 @@ import anyio.from_thread
 import anyio.to_thread
 from mcp.server.mcpserver import Context, MCPServer
 from mcp.server.mcpserver.exceptions import ToolError
-from mcp.server.subscriptions import InMemorySubscriptionBus
 from mcp_types import (
     CallToolResult,
     ImageContent,
@@ -22,6 +21,7 @@ from mcp_types import (
 )
 from pydantic import BaseModel, Field, ValidationError, create_model
 
+from robocog.server import compat
 from robocog.server.clients import (
     WORLD_RESOURCES,
     LogEntry,
@@ -119,17 +119,7 @@ def _wants_progress(ctx: Context[AppState]) -> bool:
     meta = request.meta or {}
     if meta.get("progress_token") is not None or meta.get("progressToken") is not None:
         return True
-    transport = getattr(getattr(request.session, "_request_outbound", None), "transport", None)
-    return getattr(transport, "kind", None) == "direct"
-
-
-def _anyone_listens(ctx: Context[AppState]) -> bool:
-    """Whether a `subscriptions/listen` stream may hear a published event. The SDK's in-process bus
-    with no listener would build each event and yield to the loop for nobody (three resources for
-    every action over stdio); any other bus (one across replicas, say) is always published to. (mcp
-    2.3 keeps the bus in the context's `_subscriptions` and its listeners in `_listeners`.)"""
-    bus = getattr(ctx, "_subscriptions", None)
-    return not (isinstance(bus, InMemorySubscriptionBus) and not getattr(bus, "_listeners", True))
+    return compat.transport_kind(request.session) == "direct"
 
 
 def _model_label(ctx: Context[AppState]) -> str | None:
@@ -232,7 +222,7 @@ def register_tool(mcp: MCPServer[AppState], tool: Tool[Any], access: Access) -> 
         if tool.changes_world and moved:
             if state.fleet.shared:
                 await state.clients.world_changed()
-                if _anyone_listens(ctx):  # clients on 2026-07-28 and later listen on subscriptions/listen
+                if compat.anyone_listens(ctx):  # clients on 2026-07-28 and later listen on subscriptions/listen
                     for uri in WORLD_RESOURCES:
                         await ctx.notify_resource_updated(uri)
             else:  # a fleet's robots are private: only the caller's own subscriptions hear of it

@@ -29,6 +29,8 @@ from contextvars import ContextVar
 from functools import wraps
 from typing import Any
 
+from robocog.agent.client.compat import callbacks_registered
+
 #: Inside `complete()`'s call to a model not in LiteLLM's cost map.
 unpriced_call: ContextVar[bool] = ContextVar("robocog_unpriced_call", default=False)
 #: Inside `complete()`'s call with no LiteLLM callback registered or given.
@@ -59,12 +61,6 @@ def _wrapped(original: Callable[..., Any], skip: ContextVar[bool], answer: Any) 
 
     setattr(wrapper, _MARK, True)
     return wrapper
-
-
-def callbacks_registered(litellm: Any) -> bool:
-    """Whether LiteLLM has any success or failure callback registered, globally."""
-    lists = ("callbacks", "success_callback", "_async_success_callback", "failure_callback", "_async_failure_callback")
-    return any(getattr(litellm, name, None) for name in lists)
 
 
 @contextmanager

@@ -35,6 +35,7 @@ from collections.abc import Iterable
 from functools import cache
 from typing import TYPE_CHECKING, Any
 
+from robocog.agent.client import compat
 from robocog.agent.client.litellm_tuning import robocog_call, tune
 from robocog.agent.client.local_servers import OPENAI_COMPATIBLE, bounded
 from robocog.agent.client.model_errors import classify, missing_keys
@@ -285,8 +286,8 @@ async def complete(settings: AgentSettings, messages: list[dict[str, Any]], tool
             previous = failure.message if failure.final_if_repeated else None
             await asyncio.sleep(failure.wait(attempt, settings.backoff_s))
             continue
-        hidden = getattr(response, "_hidden_params", None)
-        if isinstance(hidden, dict) and not priced:
+        hidden = compat.hidden_params(response)
+        if hidden is not None and not priced:
             hidden["response_cost"] = None  # not in the cost map: unknown, not free
         return response
     raise AssertionError("unreachable")
@@ -387,7 +388,7 @@ def usage(response: Any) -> tuple[int, int, float | None]:
     tokens_in = int(getattr(reported, "prompt_tokens", 0) or 0)
     tokens_out = int(getattr(reported, "completion_tokens", 0) or 0)
     cost = None
-    hidden = getattr(response, "_hidden_params", None) or {}
-    if isinstance(hidden, dict) and hidden.get("response_cost") is not None:
+    hidden = compat.hidden_params(response) or {}
+    if hidden.get("response_cost") is not None:
         cost = float(hidden["response_cost"])
     return tokens_in, tokens_out, cost

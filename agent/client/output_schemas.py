@@ -23,6 +23,8 @@ from typing import Any
 
 import jsonschema_rs
 
+from robocog.agent.client import compat
+
 #: At most this many distinct schemas are kept (robocog publishes about 20).
 LIMIT = 256
 
@@ -33,12 +35,12 @@ _lock = threading.Lock()
 def share_validators(session: Any, tools: Iterable[Any]) -> int:
     """Give `session` (an `mcp.ClientSession` that has listed `tools`) the validators compiled for
     the same schemas before; compile and keep those not seen yet. Returns how many were reused.
-    (mcp 2.3 keeps a session's validators in `_tool_output_validators`; where it does not, nothing
-    is shared and the SDK compiles its own, as before.)"""
-    validators = getattr(session, "_tool_output_validators", None)
-    compile_one = getattr(session, "_output_schema_validator", None)
-    if not isinstance(validators, dict) or compile_one is None:
+    (Where the SDK keeps its validators elsewhere, `compat.output_validators` finds none: nothing is
+    shared and the SDK compiles its own, as before.)"""
+    found = compat.output_validators(session)
+    if found is None:
         return 0
+    validators, compile_one = found
     reused = 0
     for tool in tools:
         schema = getattr(tool, "output_schema", None)

@@ -34,10 +34,10 @@ import chromadb
 import numpy as np
 from chromadb.api import ClientAPI
 from chromadb.api.models.Collection import Collection
-from chromadb.api.shared_system_client import SharedSystemClient
 from chromadb.api.types import Documents, EmbeddingFunction
 from chromadb.errors import ChromaError
 
+from robocog.server import compat
 from robocog.server.memory.chroma import EMBEDDED, client_settings, index_directories, tree_size
 from robocog.server.memory.embedding import MiniLMEmbeddingFunction
 from robocog.shared.limits import DESCRIPTION_CHARS, EPISODE_ID_CHARS, NAME_CHARS, SUMMARY_CHARS, truncate
@@ -327,20 +327,7 @@ class EpisodicMemory:
         if self._url is None:
             EMBEDDED.release(self.location)
             return
-        client = self._client
-        # Chroma's HTTP client (and its internal admin client) never close their connection pools:
-        # close each pool whose shared system is gone after close(), i.e. that no one else uses.
-        owners = [client, getattr(client, "_admin_client", None)]
-        pools = [
-            (getattr(o, "_identifier", None), getattr(getattr(o, "_server", None), "_session", None)) for o in owners
-        ]
-        close = getattr(client, "close", None)
-        if callable(close):
-            close()
-        for identifier, pool in pools:
-            close_pool = getattr(pool, "close", None)
-            if callable(close_pool) and identifier not in SharedSystemClient._identifier_to_system:
-                close_pool()
+        compat.close_chroma_pools(self._client)
 
     def __enter__(self) -> Self:
         return self

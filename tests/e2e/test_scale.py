@@ -4,11 +4,8 @@ run on a real (loopback) Ray cluster giving the rows of a local run."""
 from __future__ import annotations
 
 import json
-import os
 import subprocess
 import sys
-import time
-import urllib.request
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -22,6 +19,7 @@ from robocog.agent.harness.study import run_eval
 from robocog.shared.errors import ModelServiceError, ServerConnectionError
 from robocog.shared.evaluation import AttemptRow, EvalConfig, ModelSpec
 from robocog.shared.trace import ModelTurn, read_trace
+from tests.chroma_server import chroma_server
 from tests.helpers import RAY_ENV, free_port, ray_cluster, stdio_params
 
 pytestmark = pytest.mark.anyio
@@ -116,39 +114,11 @@ async def test_latency_changes_the_timing_of_a_study_and_nothing_else(tmp_path: 
 # --- one Chroma server behind two robots ---------------------------------------------------------
 
 
-def wait_until_up(url: str, proc: subprocess.Popen[bytes], what: str, seconds: float = 30) -> None:
-    deadline = time.monotonic() + seconds
-    while True:
-        try:
-            urllib.request.urlopen(url, timeout=1).close()
-            return
-        except OSError:
-            if proc.poll() is not None:
-                pytest.fail(f"{what} exited with {proc.returncode} before answering")
-            if time.monotonic() > deadline:
-                pytest.fail(f"{what} did not answer {url} within {seconds} s")
-            time.sleep(0.1)
-
-
 @pytest.fixture
 def chroma_url(tmp_path: Path) -> Iterator[str]:
     """A `chroma run` server (the CLI shipped with chromadb) on a free loopback port."""
-    chroma = Path(sys.executable).parent / "chroma"
-    command = [str(chroma)] if chroma.exists() else [sys.executable, "-c", "from chromadb.cli.cli import app; app()"]
-    port = free_port()
-    proc = subprocess.Popen(
-        [*command, "run", "--path", str(tmp_path / "chroma"), "--host", "127.0.0.1", "--port", str(port)],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-        env={**os.environ, "ANONYMIZED_TELEMETRY": "False"},
-    )
-    try:
-        url = f"http://127.0.0.1:{port}"
-        wait_until_up(f"{url}/api/v2/heartbeat", proc, "chroma run")
+    with chroma_server(tmp_path / "chroma") as url:
         yield url
-    finally:
-        proc.terminate()
-        proc.wait(timeout=15)
 
 
 async def test_one_robots_report_is_found_by_another_robot_through_a_shared_chroma_server(chroma_url: str) -> None:
