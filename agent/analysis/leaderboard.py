@@ -12,7 +12,7 @@ and every trace is present (`robocog.agent.analysis.provenance.verify`); rows wr
 provenance existed are never verified, but they are scored like any other.
 
 A study is a results file (JSONL, its traces beside it) or a submission (`robocog submit prepare`),
-read by `load_study`; `board` builds the entries, `board_json` and `board_markdown` write them, and
+read by `submission.load_study`; `board` builds the entries, `board_json` and `board_markdown` write them, and
 `draw_success_cost` plots success against cost per attempt.
 """
 
@@ -52,15 +52,6 @@ def results_study(path: Path) -> Study:
         raise ValueError(f"{path}: the results file holds no attempts")
     present = trace_on_disk(path.resolve().parent)
     return Study(path.name, tuple(rows), tuple(present(r) for r in rows))
-
-
-def load_study(path: Path) -> Study:
-    """A results file (`.jsonl`) or a submission (`.json`, validated first)."""
-    if path.suffix == ".json":
-        from robocog.agent.analysis.submission import read_submission
-
-        return read_submission(path).study(path.name)
-    return results_study(path)
 
 
 @dataclass(frozen=True)

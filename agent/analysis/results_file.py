@@ -80,7 +80,6 @@ def mend_torn_tail(path: Path) -> None:
 def load_rows(path: Path) -> list[AttemptRow]:
     """The attempts of a results file written by `robocog eval` (rows written before the error
     taxonomy get it from their traces, where those are at hand: `with_taxonomy`)."""
-    from robocog.agent.analysis.results_file import read_rows
 
     if not path.exists():
         raise FileNotFoundError(f"{path}: no such results file")

@@ -25,7 +25,7 @@ from typing import Any
 
 from pydantic import ValidationError
 
-from robocog.agent.analysis.leaderboard import Study, board, entry_json
+from robocog.agent.analysis.leaderboard import Study, board, entry_json, results_study
 from robocog.agent.analysis.provenance import trace_on_disk
 from robocog.shared import __version__
 from robocog.shared.evaluation import AttemptRow
@@ -189,3 +189,10 @@ def read_submission(path: Path) -> Submission:
     if problems:
         raise ValueError(f"{path}: not a valid submission: {problems[0]}")
     return Submission(data, rows)
+
+
+def load_study(path: Path) -> Study:
+    """A results file (`.jsonl`) or a submission (`.json`, validated first)."""
+    if path.suffix == ".json":
+        return read_submission(path).study(path.name)
+    return results_study(path)

@@ -25,7 +25,7 @@ def main(args: argparse.Namespace) -> int:
     """Run `robocog leaderboard`; returns the exit code."""
     from pydantic import ValidationError
 
-    from robocog.agent.analysis.leaderboard import load_study
+    from robocog.agent.analysis.submission import load_study
     from robocog.agent.view.leaderboard_page import write_leaderboard
 
     studies = []

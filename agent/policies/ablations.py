@@ -26,8 +26,9 @@ from dataclasses import replace
 from typing import Any, Literal
 
 from robocog.agent.policies import explore, recovery
-from robocog.agent.policies.belief import History, read_history
-from robocog.agent.policies.planner import ROBOT_ACTIONS, Call, Episode, Planner, PlannerWrapper
+from robocog.agent.policies.history import Call, History, read_history
+from robocog.agent.policies.planner import ROBOT_ACTIONS, Episode, Planner
+from robocog.agent.policies.variants import PlannerWrapper
 from robocog.agent.symbolic.rearrangement import HELD, satisfied
 from robocog.shared.names import name_key
 

@@ -48,14 +48,9 @@ from dataclasses import replace
 from typing import Any
 
 from robocog.agent.policies import recovery
-from robocog.agent.policies.belief import History, PastCall, read_history
-from robocog.agent.policies.planner import (
-    Call,
-    Episode,
-    Planner,
-    PlannerWrapper,
-    optimal_plan,
-)
+from robocog.agent.policies.history import Call, History, PastCall, read_history
+from robocog.agent.policies.planner import Episode, Planner, optimal_plan
+from robocog.agent.policies.variants import PlannerWrapper
 from robocog.shared.trace import ModelTurn, TraceEvent
 
 #: Every class of error the instrument commits, in the order they are drawn.

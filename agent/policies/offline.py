@@ -32,9 +32,9 @@ from typing import Any
 
 from robocog.agent.policies import ablations, faulty
 from robocog.agent.policies import is_offline as is_offline  # re-exported: offline.is_offline
-from robocog.agent.policies.belief import as_dict
+from robocog.agent.policies.history import Call, as_dict
 from robocog.agent.policies.memo import Kept
-from robocog.agent.policies.planner import VARIANTS, Call, decide, is_variant
+from robocog.agent.policies.variants import VARIANTS, decide, is_variant
 from robocog.shared.trace import ModelTurn, read_trace
 
 SCRIPTED_MODELS = (*VARIANTS, "faulty", *(f"without-{t}" for t in ablations.TAGS))

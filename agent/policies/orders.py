@@ -8,8 +8,8 @@ order of calls changed, nothing else.
 
 from __future__ import annotations
 
-from robocog.agent.policies.belief import History, PastCall
-from robocog.agent.policies.planner import ROBOT_ACTIONS, Call, Episode, Planner
+from robocog.agent.policies.history import Call, History, PastCall
+from robocog.agent.policies.planner import ROBOT_ACTIONS, Episode, Planner
 
 
 class Verbose(Planner):

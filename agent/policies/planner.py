@@ -29,43 +29,27 @@ acts. `decide` builds the policy for a variant and asks it for the next move.
 
 from __future__ import annotations
 
-import random
-from dataclasses import dataclass, field, replace
-from typing import Any, Literal, TypeGuard
+from dataclasses import dataclass
+from typing import Literal
 
 from robocog.agent.policies import explore, recovery
-from robocog.agent.policies.belief import (
-    UNGRASPABLE_NOTE,
-    Belief,
-    Goal,
+from robocog.agent.policies.belief import UNGRASPABLE_NOTE, Belief, Goal, Request
+from robocog.agent.policies.history import Call as Call  # re-exported: the planner's step
+from robocog.agent.policies.history import (
     History,
     PastCall,
-    Request,
     current_belief,
-    read_history,
     remembered_ungraspable,
     understand,
 )
 from robocog.agent.symbolic import rearrangement
 from robocog.agent.symbolic.rearrangement import HELD, satisfied
 
-Variant = Literal["planner", "overconfident", "refuser", "verbose", "lean"]
-VARIANTS: tuple[Variant, ...] = ("planner", "overconfident", "refuser", "verbose", "lean")
-
 #: The planner gives up (honestly) after this many tool calls in one episode (a search of a large house
 #: under partial observation takes a move and a look per location).
 MAX_TOOL_CALLS = 150
 #: The robot actions, the steps of a plan.
 ROBOT_ACTIONS = ("move_to", "grab", "place", "open", "close")
-
-
-@dataclass(frozen=True)
-class Call:
-    """The next tool call the planner wants, or a plain text answer when `name` is None."""
-
-    name: str | None
-    arguments: dict[str, Any] = field(default_factory=dict)
-    text: str = ""
 
 
 # --- the optimal plan ------------------------------------------------------------------------------
@@ -320,81 +304,3 @@ def _plan_note(task: str, request: Request, first: Belief, avoid: set[str]) -> s
     steps = f" Optimal plan: {len(plan)} robot actions." if plan is not None else ""
     known = f" Known not graspable: {', '.join(sorted(avoid))}." if avoid else ""
     return f"Plan ({request.family}) for '{task}': {goals}.{steps}{known}"
-
-
-class PlannerWrapper(Planner):
-    """Alters one step of a policy and delegates the others (as Gymnasium's wrappers do)."""
-
-    def __init__(self, inner: Planner) -> None:
-        self.inner = inner
-
-    def prepare(self, history: History) -> Call | Episode:
-        return self.inner.prepare(history)
-
-    def act(self, episode: Episode) -> Call | None:
-        return self.inner.act(episode)
-
-    def conclude(self, episode: Episode) -> Call:
-        return self.inner.conclude(episode)
-
-
-class Refuser(PlannerWrapper):
-    """Never acts: answers in plain text, so the task is never ended."""
-
-    def prepare(self, history: History) -> Call | Episode:
-        return Call(None, text=REFUSAL)
-
-
-class Overconfident(PlannerWrapper):
-    """With probability `p` (seeded per task), leaves out the object the policy would have started
-    with and reports success without the final look (a task it would fail at once, it reports a
-    success too)."""
-
-    def __init__(self, inner: Planner, *, seed: int | None, p: float) -> None:
-        super().__init__(inner)
-        self.seed, self.p = seed, p
-
-    def sloppy(self, task: str) -> bool:
-        """The seeded draw for this task."""
-        return random.Random(f"{self.seed}:{task}").random() < self.p
-
-    def prepare(self, history: History) -> Call | Episode:
-        step = self.inner.prepare(history)
-        if isinstance(step, Call):
-            if step.name == "end_task" and self.sloppy(history.task.strip()):
-                return replace(step, arguments=step.arguments | {"status": "success"})
-            return step
-        if not step.goals or not self.sloppy(step.task):
-            return step
-        hops = step.first.hops_from(step.first.location)
-        order = list(step.goals)
-        forgotten = min(order, key=lambda o: (hops.get(step.first.where.get(o, HELD)[0], 99), order.index(o)))
-        return replace(step, goals={o: g for o, g in step.goals.items() if o != forgotten})
-
-    def conclude(self, episode: Episode) -> Call:
-        if not self.sloppy(episode.task):
-            return self.inner.conclude(episode)
-        return episode.end("success", replace(episode, given_up={}).summary(len(episode.calls) + 1))
-
-
-def is_variant(name: str) -> TypeGuard[Variant]:
-    """Whether `name` is one of the planner's variants."""
-    return name in VARIANTS
-
-
-def policy(variant: Variant = "planner", *, seed: int | None = None, p: float = 0.3) -> Planner:
-    """The planner, wrapped for a variant."""
-    if variant == "refuser":
-        return Refuser(Planner())
-    if variant == "overconfident":
-        return Overconfident(Planner(), seed=seed, p=p)
-    if variant in ("verbose", "lean"):
-        from robocog.agent.policies import orders
-
-        return orders.Verbose() if variant == "verbose" else orders.Lean()
-    return Planner()
-
-
-def decide(messages: list[Any], variant: Variant = "planner", *, seed: int | None = None, p: float = 0.3) -> Call:
-    """The next move of the planner (or a variant) for the conversation so far."""
-    return policy(variant, seed=seed, p=p)(read_history(messages))

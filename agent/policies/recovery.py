@@ -23,14 +23,11 @@ import re
 from collections import deque
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
 from robocog.agent.families.reading import Goal
-from robocog.agent.policies.belief import Belief, PastCall
+from robocog.agent.policies.belief import Belief
+from robocog.agent.policies.history import Call, PastCall
 from robocog.agent.policies.sightings import closed_over
-
-if TYPE_CHECKING:
-    from robocog.agent.policies.planner import Call
 
 #: What the server appends to a result when an announced perturbation happened.
 CHANGED = "Something changed:"

@@ -12,16 +12,10 @@ from __future__ import annotations
 
 import re
 from collections.abc import Mapping
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from robocog.agent.families.reading import Goal
-
-if TYPE_CHECKING:
-    from robocog.agent.policies.belief import Belief
-
-_SEEN = re.compile(r"\bSeen: (.+?)\.(?:\s|$)")
-_LOOK = re.compile(r"([\w\- ]+?) \(([^()]*)\)")
-
+from robocog.agent.policies.belief import Belief
 
 #: A failed place or grab names the closed container in the way: "..., which is closed. open('NAME') first."
 _CLOSED_OVER = re.compile(r"which is closed\. open\('([^']+)'\) first")
@@ -31,14 +25,6 @@ def closed_over(result: dict[str, Any]) -> str | None:
     """The closed container a failed action's result says is in the way (not the arm's reach), if any."""
     found = _CLOSED_OVER.search(str(result.get("message", ""))) if result.get("status") == "failure" else None
     return found.group(1) if found else None
-
-
-def seen_looks(message: str) -> dict[str, tuple[str, ...]]:
-    """What a look_around message says each object looks like ("Seen: mug (white, small), ..."; robocog-v2.1)."""
-    said = _SEEN.search(message)
-    if said is None:
-        return {}
-    return {m.group(1).strip(): tuple(w.strip() for w in m.group(2).split(",")) for m in _LOOK.finditer(said.group(1))}
 
 
 def out_of_sight(goals: Mapping[str, Goal], first: Belief) -> bool:

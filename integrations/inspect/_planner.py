@@ -21,7 +21,7 @@ from inspect_ai.model import (
 )
 from inspect_ai.tool import ToolChoice, ToolInfo
 
-from robocog.agent.policies.planner import VARIANTS, Variant, decide
+from robocog.agent.policies.variants import VARIANTS, Variant, decide
 
 MODEL = "mockllm/model"
 

@@ -49,7 +49,7 @@ from inspect_ai.tool import (
     mcp_tools,
 )
 
-from robocog.agent.policies.planner import decide
+from robocog.agent.policies.variants import decide
 from robocog.agent.study_protocols import PROTOCOLS
 from robocog.inspect._transcript import believed_status as believed_status  # the package's, from here
 from robocog.inspect._transcript import ended, text_of

@@ -19,8 +19,9 @@ from typing import Any
 import pytest
 
 from robocog.agent.client.connection import Robot
-from robocog.agent.policies.belief import Belief, Goal, understand
-from robocog.agent.policies.planner import Call, optimal_plan
+from robocog.agent.policies.belief import Belief, Goal
+from robocog.agent.policies.history import Call, understand
+from robocog.agent.policies.planner import optimal_plan
 from robocog.shared.appearance import attributes
 from robocog.shared.scene import Scene
 from robocog.shared.scene_files import load_scene, scene_path

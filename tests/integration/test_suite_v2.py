@@ -10,7 +10,8 @@ from collections.abc import AsyncIterator
 import pytest
 
 from robocog.agent.client.connection import Robot
-from robocog.agent.policies.belief import Belief, understand
+from robocog.agent.policies.belief import Belief
+from robocog.agent.policies.history import understand
 from robocog.agent.policies.planner import optimal_plan
 from robocog.agent.suitegen import stats
 from robocog.agent.suitegen.generator import generate

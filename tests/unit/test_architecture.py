@@ -1,5 +1,6 @@
 """The shape of the code: the import contracts hold (import-linter, as `make lint` runs it), no module
-reaches into another's private names, no source or test file grows past 400 lines, and reading results
+reaches into another's private names, no two modules import each other (not even from inside a
+function), no source or test file grows past 400 lines, and reading results
 (`robocog report`, `robocog view`, `robocog --help`) starts without the MCP SDK, LiteLLM or PyBullet."""
 
 from __future__ import annotations
@@ -67,6 +68,32 @@ def test_no_module_imports_a_private_name_of_another() -> None:
                 if alias.name.startswith("_") and not alias.name.startswith("__"):
                     offenders.append(f"{path.relative_to(ROOT)}:{node.lineno}: {source}.{alias.name}")
     assert offenders == []
+
+
+def imported_modules() -> dict[str, set[str]]:
+    """Each source module and the robocog modules it imports anywhere in it (in a function, under
+    TYPE_CHECKING too): `from P import M` counts as importing the module P.M where M is one."""
+    modules = {module_name(p): p for p in source_files()}
+    edges: dict[str, set[str]] = {}
+    for here, path in modules.items():
+        package = here if path.name == "__init__.py" else here.rpartition(".")[0]
+        found: set[str] = set()
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Import):
+                found |= {a.name for a in node.names}
+            elif isinstance(node, ast.ImportFrom):
+                base = node.module or ""
+                if node.level:
+                    base = ".".join([package.rsplit(".", node.level - 1)[0], *([base] if base else [])])
+                found |= {f"{base}.{a.name}" if f"{base}.{a.name}" in modules else base for a in node.names}
+        edges[here] = {m for m in found if m in modules and m != here}
+    return edges
+
+
+def test_no_two_modules_import_each_other() -> None:
+    edges = imported_modules()
+    pairs = sorted({tuple(sorted((a, b))) for a, out in edges.items() for b in out if a in edges.get(b, set())})
+    assert pairs == []
 
 
 def test_no_source_or_test_file_is_longer_than_400_lines() -> None:

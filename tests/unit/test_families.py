@@ -22,7 +22,8 @@ from robocog.agent.families import (
     registry,
 )
 from robocog.agent.families.reading import Request
-from robocog.agent.policies.belief import Belief, Goal, understand
+from robocog.agent.policies.belief import Belief, Goal
+from robocog.agent.policies.history import understand
 from robocog.agent.symbolic.world import SceneNames
 from robocog.shared.errors import ConfigError
 from robocog.shared.family_files import FAMILIES_DIR

@@ -7,7 +7,7 @@ import pytest
 
 from robocog.agent.analysis.instrument import ClassScore, expected_claim, ignored, scope_of, truth_of
 from robocog.agent.policies import faulty, recovery
-from robocog.agent.policies.belief import History, PastCall
+from robocog.agent.policies.history import History, PastCall
 from robocog.agent.policies.offline import OfflineModelError, scripted_turn
 from robocog.agent.policies.planner import Call, Planner
 from robocog.shared.perturbations import PerturbationEvent

@@ -16,7 +16,8 @@ import pytest
 import robocog.agent.families.reading as reading
 import robocog.server.world.navigation as navigation
 import robocog.shared.scene as scene_module
-from robocog.agent.policies.belief import Belief, understand
+from robocog.agent.policies.belief import Belief
+from robocog.agent.policies.history import understand
 from robocog.agent.suitegen.generator import generate
 from robocog.shared.names import name_key
 from robocog.shared.scene import Scene

@@ -10,18 +10,11 @@ import json
 from collections import deque
 from typing import Any
 
-from robocog.agent.policies.belief import (
-    Belief,
-    Goal,
-    History,
-    PastCall,
-    current_belief,
-    read_history,
-    understand,
-)
+from robocog.agent.policies.belief import Belief, Goal
+from robocog.agent.policies.history import History, PastCall, current_belief, read_history, understand
 from robocog.agent.policies.memo import Kept, frozen
 from robocog.agent.policies.offline import prompt_chars
-from robocog.agent.policies.planner import decide
+from robocog.agent.policies.variants import decide
 from robocog.agent.symbolic.bounds import carrying_drives, drives_along
 from robocog.agent.symbolic.rearrangement import HELD, Rearrangement, rearrangement
 

@@ -12,8 +12,8 @@ from robocog.agent.analysis.report_perturbations import recovery_rates, recovery
 from robocog.agent.analysis.taxonomy import annotate
 from robocog.agent.families.recovery import blocked_for_good, blocked_in_transport, moved_in_transport, route
 from robocog.agent.families.registry import draw_specs
-from robocog.agent.policies.belief import Belief, Goal, PastCall
-from robocog.agent.policies.planner import Call
+from robocog.agent.policies.belief import Belief, Goal
+from robocog.agent.policies.history import Call, PastCall
 from robocog.agent.policies.recovery import MAX_BLOCKED, detour, look_again, lost, read_setbacks
 from robocog.agent.symbolic.world import SceneNames
 from robocog.shared.evaluation import AttemptRow
