@@ -14,9 +14,9 @@ from collections.abc import Sequence
 from robocog.server.config import SessionConfig
 from robocog.server.session import RobotSession
 from robocog.server.tools import ROBOT_TOOLS
+from robocog.server.world.paper import T1_SEQUENCE, T2_SEQUENCE, Action, action_args
 from robocog.server.world.tasks import evaluate, task_catalogue
 from robocog.server.world.world import World
-from robocog.shared.paper import T1_SEQUENCE, T2_SEQUENCE, Action, action_args
 from robocog.shared.results import ActionResult
 
 WORLD_TOOLS = {t.name: t for t in ROBOT_TOOLS if t.name in ("look_around", "move_to", "grab", "place")}

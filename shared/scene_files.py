@@ -45,7 +45,7 @@ def load_scene(path: Path) -> Scene:
 
 #: Where the shipped scenes live; a scene is named by its file's stem.
 SCENES_DIR = ASSETS_DIR / "scenes"
-#: Where the generated houses robocog ships live (`robocog.shared.housegen`), also named by stem.
+#: Where the generated houses robocog ships live (`robocog.agent.housegen`), also named by stem.
 GENERATED_DIR = SCENES_DIR / "generated"
 
 

@@ -25,7 +25,7 @@ from contextlib import asynccontextmanager, contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO, cast
 
-from robocog.shared.paper import T1_SEQUENCE, T2_SEQUENCE, Action, action_args
+from robocog.server.world.paper import T1_SEQUENCE, T2_SEQUENCE, Action, action_args
 
 if TYPE_CHECKING:  # the benches run this file with a previous release's install too
     from mcp import Client
@@ -101,7 +101,7 @@ T1 = "Put away all the items into the shelf."
 T2 = "Swap the mug and the cube in the shelf."
 
 # The paper's action scripts (T1_SEQUENCE, T2_SEQUENCE, action_args) are written once, in
-# robocog.shared.paper; re-exported here for the tests.
+# robocog.server.world.paper; re-exported here for the tests.
 
 
 # --- snapshots -----------------------------------------------------------------------------------

@@ -57,7 +57,7 @@ from robocog.shared.trace import (
 )
 
 if TYPE_CHECKING:
-    from robocog.shared.scene import Scene
+    pass
 
 #: Every category, in the report's order.
 CATEGORIES = ("parse", "hallucination", "affordance", "wrong_order", "missing_step", "additional_step")
@@ -89,16 +89,6 @@ class SceneNames:
     locations: set[str] = field(default_factory=set)
     objects: set[str] = field(default_factory=set)
     positions: dict[str, set[str]] = field(default_factory=dict)
-
-    @classmethod
-    def of_scene(cls, scene: Scene) -> SceneNames:
-        names = cls(
-            locations={normalise(loc.name) for loc in scene.locations},
-            objects={normalise(o.name) for o in scene.objects},
-        )
-        for p in scene.place_positions:
-            names.positions.setdefault(normalise(p.location), set()).add(normalise(p.name))
-        return names
 
     def add_look_around(self, data: dict[str, Any]) -> None:
         """The names a look_around result lists (its locations, objects, positions, the held object)."""

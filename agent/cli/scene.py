@@ -30,7 +30,7 @@ def add_parser(commands: Any) -> argparse.ArgumentParser:
 
 def main(args: argparse.Namespace) -> int:
     """`robocog scene generate | list`."""
-    from robocog.shared.housegen import house_yaml
+    from robocog.agent.housegen import house_yaml
     from robocog.shared.scene_files import generated_scene_names, load_scene, scene_names, scene_path
 
     if args.scene_command == "generate":

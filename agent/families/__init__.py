@@ -31,7 +31,7 @@ for _module in sorted(m.name for m in pkgutil.iter_modules(__path__)):
 
 
 def load_family(path: Path) -> Family:
-    """One family file, checked against every registered draw (`robocog.shared.suite.load_family`)."""
+    """One family file, checked against every registered draw (`robocog.shared.family_files.load_family`)."""
     return _load_family(path, draw_specs())
 
 

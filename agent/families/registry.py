@@ -3,11 +3,11 @@ variant's parameters) and prompt readers (how the scripted planner reads its pro
 by the family module that defines them, with the decorators `draw` and `reader`.
 
 **Where a draw's name is spelled.** Once: in its `@draw(name, gives=..., takes=...)`, beside its
-code. The declaration (`robocog.shared.suite.DrawSpec`: the parameters it gives, each with an
+code. The declaration (`robocog.shared.family_files.DrawSpec`: the parameters it gives, each with an
 example value of its shape, and the variant fields it takes: count, choices, prelude) lives with
 the implementation, not in `robocog.shared`, because `shared` cannot import `agent`: a family that
 brings a new draw would otherwise have to edit `shared/suite.py` as well. So `shared` checks a family
-file against the declarations its caller passes in (`robocog.shared.suite.load_family(path, draws)`),
+file against the declarations its caller passes in (`robocog.shared.family_files.load_family(path, draws)`),
 and this package's `load_family` / `load_families` pass every registered one (`draw_specs()`): a
 variant's draw must be registered, its templates may use only the parameters the draw gives, and
 it has a count, choices or a prelude exactly when its draw takes one.
@@ -132,7 +132,7 @@ def registered_draws() -> dict[str, RegisteredDraw]:
 
 
 def draw_specs() -> dict[str, DrawSpec]:
-    """Every registered draw's declaration, by name: what `robocog.shared.suite.load_family` checks."""
+    """Every registered draw's declaration, by name: what `robocog.shared.family_files.load_family` checks."""
     return {name: d.spec for name, d in _DRAWS.items()}
 
 

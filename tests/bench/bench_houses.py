@@ -1,4 +1,4 @@
-"""The generated houses (`robocog.shared.housegen`): build + reset of each of the fifty shipped houses
+"""The generated houses (`robocog.agent.housegen`): build + reset of each of the fifty shipped houses
 (p50, p95, max), the oracle's tour of every house (every container opened, one object carried over every
 free place position with the world's own actions, ground truth reporting it at rest on each), and the
 memory one more world of a generated house costs, against the paper's household."""
@@ -13,8 +13,8 @@ import sys
 import time
 from pathlib import Path
 
+from robocog.agent.housegen import SHIPPED_HOUSES, house_name
 from robocog.server.world.world import World
-from robocog.shared.housegen import SHIPPED_HOUSES, house_name
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository, for tests.house_tour
 from tests.house_tour import start_problems, tour

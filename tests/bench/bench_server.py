@@ -19,7 +19,7 @@ from mcp.client.stdio import StdioServerParameters, stdio_client
 
 from robocog.server.app import build_server
 from robocog.server.config import SessionConfig
-from robocog.shared.paper import T1_SEQUENCE
+from robocog.server.world.paper import T1_SEQUENCE
 
 COLD_STARTS = 5
 ROUND_TRIPS = 500

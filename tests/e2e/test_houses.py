@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import pytest
 
+from robocog.agent.housegen import house_name
 from robocog.server.world.world import World
-from robocog.shared.housegen import house_name
 from tests.house_tour import start_problems, tour
 
 #: The sample: every fifth house (two to five rooms; drawers, cabinets and fridges among them), about 20 s.

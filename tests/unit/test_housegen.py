@@ -1,4 +1,4 @@
-"""The house generator (`robocog.shared.housegen`): one seed, one file byte for byte; the fifty shipped
+"""The house generator (`robocog.agent.housegen`): one seed, one file byte for byte; the fifty shipped
 houses are what their seeds generate, load by name, pass the layout check, and between them use the
 whole furniture catalogue and at least ten kinds of objects; `robocog scene generate | list`."""
 
@@ -11,9 +11,9 @@ import pytest
 import yaml
 
 from robocog.agent.cli.main import main as robocog
+from robocog.agent.housegen import SHIPPED_HOUSES, generate_house, house_name, house_yaml
+from robocog.agent.housegen.catalogue import FURNITURE, OBJECTS
 from robocog.shared.errors import ConfigError
-from robocog.shared.housegen import SHIPPED_HOUSES, generate_house, house_name, house_yaml
-from robocog.shared.housegen.catalogue import FURNITURE, OBJECTS
 from robocog.shared.scene import Scene
 from robocog.shared.scene_files import GENERATED_DIR, generated_scene_names, load_scene, scene_names, scene_path
 from robocog.shared.scene_layout import layout_problems

@@ -2,7 +2,7 @@
 
 `house_yaml(seed)` is house `seed` as a scene file, in the schema of `robocog.shared.scene` (the world,
 the viewers and the planner read it as they read any scene): two to five rooms on a grid joined by
-doorways, furniture from a catalogue (`robocog.shared.housegen.catalogue`: shelves, a bookcase, tables,
+doorways, furniture from a catalogue (`robocog.agent.housegen.catalogue`: shelves, a bookcase, tables,
 a desk, a counter, a nightstand, a sofa, a bed, and the containers that open: drawers, cabinets, a
 fridge) against the walls, each with a location in front of it, and six to nine objects of fourteen
 kinds with their referring descriptions, on place positions. The same seed gives the same bytes; every
@@ -16,7 +16,7 @@ from typing import Any
 
 import yaml
 
-from robocog.shared.housegen.generate import generate_house, house_name
+from robocog.agent.housegen.generate import generate_house, house_name
 
 __all__ = ["SHIPPED_HOUSES", "generate_house", "house_name", "house_yaml"]
 

@@ -12,8 +12,8 @@ import random
 from dataclasses import dataclass
 from typing import Any
 
+from robocog.agent.housegen.catalogue import FURNITURE, OBJECTS, PALETTE, ROOM_KINDS, Kind, Piece, Rgba
 from robocog.shared.containers import geometry
-from robocog.shared.housegen.catalogue import FURNITURE, OBJECTS, PALETTE, ROOM_KINDS, Kind, Piece, Rgba
 from robocog.shared.scene import Container, Scene
 from robocog.shared.scene_layout import layout_problems
 
