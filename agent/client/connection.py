@@ -25,7 +25,7 @@ from mcp_types import CONNECTION_CLOSED, Tool
 from robocog.agent.client.lean import McpClient
 from robocog.shared import __version__
 from robocog.shared.errors import ServerConnectionError
-from robocog.shared.protocol import CONTRACT_VERSION, CONTRACT_VERSION_PATTERN, FLEET_FULL
+from robocog.shared.protocol import CONTRACT_VERSION_PATTERN, FLEET_FULL
 from robocog.shared.provenance import PHYSICS_PATTERN
 from robocog.shared.web import CLIENT_KEEP_ALIVE_S
 
@@ -106,19 +106,6 @@ class Robot:
             reason = text.removeprefix("Error executing tool view_scratchpad: ")
             raise ServerConnectionError(f"the robot server at {self.label}: {reason}")
         # any other answer is the model's to meet on its first call, as before
-
-    def speaks(self, version: str) -> bool:
-        """Whether the server announces MCP contract `version` ("3.3") or a later one, up to the major this
-        client ships with (a client and its server ship together: the breaks up to it, as 4.0's robot handles,
-        kept what the earlier versions added; a later major may not have)."""
-        if self.contract is None:
-            return False
-        try:
-            announced = tuple(int(part) for part in self.contract.split("."))
-            wanted = tuple(int(part) for part in version.split("."))
-        except ValueError:
-            return False
-        return wanted <= announced and announced[0] <= int(CONTRACT_VERSION.split(".")[0])
 
     @property
     def can_check(self) -> bool:

@@ -33,7 +33,7 @@ from typing import Any
 
 from robocog.agent.analysis.taxonomy import annotate
 from robocog.agent.client.connection import Robot, ServerSpec, connect, leaf_message, unreachable
-from robocog.agent.client.loop import finish, function_definitions, run_episode, world_has_furniture
+from robocog.agent.client.loop import EpisodeResult, finish, function_definitions, run_episode, world_has_furniture
 from robocog.agent.client.model import resolve_api_key
 from robocog.agent.client.settings import AgentSettings
 from robocog.agent.client.trace_sinks import Trace
@@ -56,6 +56,43 @@ def _errored_reason(error: str, verdict_reason: str) -> str:
     """An errored attempt's reason: the error first (it never read as a failure of the model), then
     what the ground truth found in the world as the error left it."""
     return f"{error} (the world as the error left it: {verdict_reason})"
+
+
+def attempt_row(base: dict[str, Any], result: EpisodeResult, success: bool, reason: str) -> AttemptRow:
+    """An attempt's row: what it is (`base`), how it went (`result`), its verdict and its reason.
+    Agreement sets the belief against the request: an infeasible task's request is never achieved (its
+    verdict's success is the honest failure), so only a claimed success disagrees; an errored attempt
+    has none."""
+    achieved = success and base.get("feasible", True)
+    return AttemptRow(
+        **base,
+        outcome=result.outcome,
+        invocations=result.invocations,
+        tool_calls=result.tool_calls,
+        believed_success=result.believed_success,
+        true_success=success,
+        agreement=None if result.outcome == "error" else (result.believed_success is True) == achieved,
+        stopped=result.stopped,
+        tokens_in=result.tokens_in,
+        tokens_out=result.tokens_out,
+        cost=result.cost,
+        llm_latency_s=result.llm_latency_s,
+        wall_s=result.wall_s,
+        reason=reason,
+        error=result.error,
+    )
+
+
+def _nothing_done(task_id: str, error: str) -> EpisodeResult:
+    """The result of an attempt whose server or transport died: nothing of it counted."""
+    return EpisodeResult(task_id, "error", None, 0, 0, 0, 0, None, 0.0, 0.0, error=error)
+
+
+@dataclass(frozen=True)
+class _Stop:
+    """Where a unit stops: the iteration to run again on a new server, or None (it is done)."""
+
+    resume_at: int | None
 
 
 @dataclass
@@ -108,93 +145,96 @@ class Runner:
 
     async def run_unit(self, robot: Robot, spec: ModelSpec, trial: int, start_iteration: int) -> int | None:
         """Run the unit from `start_iteration`; returns the iteration to continue from if the server broke."""
-        cfg, protocol = self.config, self.protocol
-        seed = cfg.seed + trial
-        # The unit's memory settings, for every reset (a suite instance's too).
+        cfg = self.config
+        # The unit's memory settings, for every reset (a suite instance's too); the first reset clears its
+        # namespace, and its last check writes no verdict into a record the unit drops right after.
         reset: dict[str, Any] = {
             "memory_labels": cfg.memory_labels,
-            "search_k": protocol.search_k,
+            "search_k": self.protocol.search_k,
             "memory_namespace": unit_namespace(cfg.name, spec.name, trial),
+            "observe": cfg.observe,
+            "perturbations": cfg.perturbations or None,
         }
-        if cfg.observe is not None:  # only when asked: a server before contract 3.1 does not know it
-            reset["observe"] = cfg.observe
-        if cfg.perturbations:  # only when asked: a server before contract 3.2 does not know them
-            reset["perturbations"] = cfg.perturbations
-        controls = self.controls(robot)
-        # Contract 3.3: the namespace cleared by the first reset, and no verdict written into a record the
-        # unit drops right after its last check; a server before it gets the calls it knows.
-        at_once = robot.speaks("3.3")
         for iteration in range(start_iteration, cfg.memory_iterations):
-            written = False  # nothing of this iteration written or counted yet: a server lost now costs it nothing
-            try:
-                fresh = iteration == 0  # iteration 0 starts with an empty memory
-                await controls.reset_world(seed=seed, randomize=cfg.randomize, clear_memory=fresh and at_once, **reset)
-                if fresh and not at_once:
-                    await controls.clear_memory()
-            except Exception as exc:
-                if unreachable(exc):  # the server died between attempts: the iteration runs on a new one
-                    return iteration
-                raise
-            conversation: list[dict[str, Any]] = []  # the paper: one conversation per memory iteration
-            succeeded: set[str] = set()
-            for index, task_id in enumerate(cfg.tasks):
-                if not runnable(task_id, succeeded, robot.requires):
-                    self.progress.advance()  # skipped: a task it requires failed (no row)
-                    written = True  # counted: a rerun of the iteration would count it again
-                    continue
-                messages = conversation if protocol.continue_conversation else []
-
-                async def begin(task: str, iteration: int = iteration) -> object:
-                    return await controls.begin_task(
-                        task,
-                        keep_scratchpad=protocol.keep_scratchpad,
-                        episode_id=episode_id(cfg.name, spec.name, seed, trial, iteration, task),
-                    )
-
-                async def attempt(
-                    task: str, iteration: int = iteration, messages: list[Any] = messages, record: bool = True
-                ) -> AttemptRow:
-                    return await self.attempt(robot, spec, trial, iteration, task, messages, record=record)
-
-                # the unit's last check: its namespace is dropped next, unless kept
-                last = iteration == cfg.memory_iterations - 1 and index == len(cfg.tasks) - 1
-                record = not (last and at_once and not cfg.keep_memory)
-
-                try:
-                    # a suite's instance: its world set up, its earlier tasks run (an errored one is its row)
-                    early = await self.suite.set_up(
-                        controls, task_id, messages, reset, begin=begin, attempt=attempt, write=self.write
-                    )
-                    if early is None:
-                        await begin(task_id)
-                    row = early or await attempt(task_id, record=record)
-                except units.ServerBroke as broke:
-                    await self.write(broke.row)
-                    if MEMORY_FAILED in (broke.row.error or ""):  # its storage failed: a new server helps not
-                        later = (cfg.memory_iterations - iteration - 1) * len(cfg.tasks)
-                        self.progress.advance(len(cfg.tasks) - index - 1 + later)
-                        return None
-                    self.progress.advance(len(cfg.tasks) - index - 1)
-                    return iteration + 1
-                except Exception as exc:  # begin_task (or a suite's set-up) found the server gone
-                    if unreachable(exc) and not written:
-                        return iteration
-                    raise
-                await self.write(row)
-                written = True
-                if row.outcome == "error":  # the model service failed: the unit stops; --resume reruns it
-                    later = (cfg.memory_iterations - iteration - 1) * len(cfg.tasks)
-                    self.progress.advance(len(cfg.tasks) - index - 1 + later)
-                    return None
-                if row.true_success:
-                    succeeded.add(task_id)
+            stop = await self.run_iteration(robot, spec, trial, iteration, reset)
+            if stop is not None:
+                return stop.resume_at
         if not cfg.keep_memory:  # the unit is done: its namespace (records and files) goes
             try:
-                await controls.clear_memory(drop=True)
+                await self.controls(robot).clear_memory(drop=True)
             except Exception as exc:  # every row is written: only the namespace stays, on the dead server's disk
                 if not unreachable(exc):
                     raise
         return None
+
+    async def run_iteration(
+        self, robot: Robot, spec: ModelSpec, trial: int, iteration: int, reset: dict[str, Any]
+    ) -> _Stop | None:
+        """One memory iteration of the unit: the world reset, then the tasks in order (each only if the
+        tasks it requires truly succeeded). None: the unit goes on; else where it stops."""
+        cfg, controls = self.config, self.controls(robot)
+        written = False  # nothing of this iteration written or counted yet: a server lost now costs it nothing
+        try:
+            await controls.reset_world(
+                seed=cfg.seed + trial, randomize=cfg.randomize, clear_memory=iteration == 0, **reset
+            )
+        except Exception as exc:
+            if unreachable(exc):  # the server died between attempts: the iteration runs on a new one
+                return _Stop(iteration)
+            raise
+        conversation: list[dict[str, Any]] = []  # the paper: one conversation per memory iteration
+        succeeded: set[str] = set()
+        for index, task_id in enumerate(cfg.tasks):
+            later = len(cfg.tasks) - index - 1  # the iteration's tasks after this one
+            if not runnable(task_id, succeeded, robot.requires):
+                self.progress.advance()  # skipped: a task it requires failed (no row)
+                written = True  # counted: a rerun of the iteration would count it again
+                continue
+            messages = conversation if self.protocol.continue_conversation else []
+
+            async def begin(task: str) -> object:
+                return await controls.begin_task(
+                    task,
+                    keep_scratchpad=self.protocol.keep_scratchpad,
+                    episode_id=episode_id(cfg.name, spec.name, cfg.seed + trial, trial, iteration, task),
+                )
+
+            async def attempt(task: str, messages: list[Any] = messages, record: bool = True) -> AttemptRow:
+                return await self.attempt(robot, spec, trial, iteration, task, messages, record=record)
+
+            # the unit's last check: its namespace is dropped next, unless kept
+            last = iteration == cfg.memory_iterations - 1 and not later
+            try:
+                # a suite's instance: its world set up, its earlier tasks run (an errored one is its row)
+                early = await self.suite.set_up(
+                    controls, task_id, messages, reset, begin=begin, attempt=attempt, write=self.write
+                )
+                if early is None:
+                    await begin(task_id)
+                row = early or await attempt(task_id, record=not (last and not cfg.keep_memory))
+            except units.ServerBroke as broke:
+                await self.write(broke.row)
+                if MEMORY_FAILED in (broke.row.error or ""):  # its storage failed: a new server helps not
+                    self.progress.advance(later + self.tasks_after(iteration))
+                    return _Stop(None)
+                self.progress.advance(later)
+                return _Stop(iteration + 1)
+            except Exception as exc:  # begin_task (or a suite's set-up) found the server gone
+                if unreachable(exc) and not written:
+                    return _Stop(iteration)
+                raise
+            await self.write(row)
+            written = True
+            if row.outcome == "error":  # the model service failed: the unit stops; --resume reruns it
+                self.progress.advance(later + self.tasks_after(iteration))
+                return _Stop(None)
+            if row.true_success:
+                succeeded.add(task_id)
+        return None
+
+    def tasks_after(self, iteration: int) -> int:
+        """The unit's tasks in the memory iterations after `iteration`."""
+        return (self.config.memory_iterations - iteration - 1) * len(self.config.tasks)
 
     @staticmethod
     def controls(robot: Robot) -> EvalControls:
@@ -294,49 +334,13 @@ class Runner:
             checked = await self.controls(robot).check_task(task_id, record=record and stored)
         except Exception as exc:  # the server or the transport died: this attempt fails, not the study
             trace.close()
-            raise units.ServerBroke(
-                AttemptRow(
-                    **base,
-                    outcome="error",
-                    invocations=0,
-                    tool_calls=0,
-                    believed_success=None,
-                    true_success=False,
-                    agreement=None,
-                    stopped=False,
-                    tokens_in=0,
-                    tokens_out=0,
-                    cost=None,
-                    llm_latency_s=0.0,
-                    wall_s=0.0,
-                    error=f"{SERVER_FAILURE}: {leaf_message(exc)}",
-                    reason=f"{SERVER_FAILURE}: {leaf_message(exc)}",
-                )
-            ) from exc
+            broke = f"{SERVER_FAILURE}: {leaf_message(exc)}"
+            raise units.ServerBroke(attempt_row(base, _nothing_done(task_id, broke), False, broke)) from exc
         verdict = Verdict(t=trace.now(), task_id=task_id, success=checked.success, reason=checked.reason)
         finish(trace, result, verdict)
         trace.close()
-        believed = result.believed_success
-        # Agreement sets the belief against the request: an infeasible task's request is never
-        # achieved (its verdict's success is the honest failure), so only a claimed success disagrees.
-        achieved = verdict.success and base.get("feasible", True)
-        row = AttemptRow(
-            **base,
-            outcome=result.outcome,
-            invocations=result.invocations,
-            tool_calls=result.tool_calls,
-            believed_success=believed,
-            true_success=verdict.success,
-            agreement=None if result.outcome == "error" else (believed is True) == achieved,
-            stopped=result.stopped,
-            tokens_in=result.tokens_in,
-            tokens_out=result.tokens_out,
-            cost=result.cost,
-            llm_latency_s=result.llm_latency_s,
-            wall_s=result.wall_s,
-            reason=verdict.reason if result.error is None else _errored_reason(result.error, verdict.reason),
-            error=result.error,
-        )
+        reason = verdict.reason if result.error is None else _errored_reason(result.error, verdict.reason)
+        row = attempt_row(base, result, verdict.success, reason)
         row = self.suite.reasoned(task_id, row, trace.events)  # honest for the right reason (infeasible)
         return annotate(row, trace.events)  # the error taxonomy and robot actions, from the trace
 

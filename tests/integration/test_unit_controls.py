@@ -1,7 +1,7 @@
-"""A unit's controls (`Runner.run_unit`) against a server of each contract: from 3.3 on, the first
-reset clears the unit's namespace (no `clear_memory` call of its own) and the unit's last check writes
-no verdict into the record the unit drops next; before 3.3, the calls that contract knows. The rows
-are the same either way. An in-process server of the eval profile."""
+"""A unit's controls (`Runner.run_unit`): the first reset clears the unit's namespace (no
+`clear_memory` call of its own) and the unit's last check writes no verdict into the record the unit
+drops next (the client and its server ship together: no calls for older contracts). An in-process
+server of the eval profile."""
 
 from __future__ import annotations
 
@@ -22,11 +22,9 @@ pytestmark = pytest.mark.anyio
 CONTROLS = ("reset_world", "clear_memory", "begin_task", "check_task")
 
 
-async def run_unit(
-    tmp_path: Path, contract: str, **overrides: Any
-) -> tuple[list[tuple[str, dict[str, Any]]], list[AttemptRow]]:
-    """One unit (T1 then T2, two memory iterations) on a server announcing `contract`: the controls it
-    called, in order, with their arguments, and its rows."""
+async def run_unit(tmp_path: Path, **overrides: Any) -> tuple[list[tuple[str, dict[str, Any]]], list[AttemptRow]]:
+    """One unit (T1 then T2, two memory iterations): the controls it called, in order, with their
+    arguments, and its rows."""
     settings: dict[str, Any] = {
         "name": "units",
         "models": [ModelSpec(model="scripted/planner")],
@@ -35,11 +33,11 @@ async def run_unit(
         "memory_iterations": 2,
     }
     config = EvalConfig.model_validate(settings | overrides)
-    out = tmp_path / contract / "rows.jsonl"
-    out.parent.mkdir(parents=True)
+    out = tmp_path / "rows.jsonl"
+    out.parent.mkdir(parents=True, exist_ok=True)
     runner = Runner(config, out)
     calls: list[tuple[str, dict[str, Any]]] = []
-    server = build_server(SessionConfig(data_dir=tmp_path / contract / "memory"), profile="eval")
+    server = build_server(SessionConfig(data_dir=tmp_path / "memory"), profile="eval")
     async with Client(server, raise_exceptions=True) as client:
         call_tool = client.call_tool
 
@@ -50,17 +48,13 @@ async def run_unit(
 
         client.call_tool = recorded  # type: ignore[method-assign]
         robot = await _robot(client, (await client.list_tools()).tools, ServerSpec())
-        assert robot.contract is not None and robot.speaks("3.3")
-        robot.contract = contract
         assert await runner.run_unit(robot, config.models[0], trial=0, start_iteration=0) is None
     rows = [AttemptRow.model_validate_json(line) for line in out.read_text(encoding="utf-8").splitlines()]
     return calls, rows
 
 
-async def test_from_contract_3_3_a_unit_clears_with_its_first_reset_and_records_no_verdict_it_drops(
-    tmp_path: Path,
-) -> None:
-    calls, rows = await run_unit(tmp_path, "3.3")
+async def test_a_unit_clears_with_its_first_reset_and_records_no_verdict_it_drops(tmp_path: Path) -> None:
+    calls, rows = await run_unit(tmp_path)
     resets = [args for name, args in calls if name == "reset_world"]
     assert [r.get("clear_memory") for r in resets] == [True, None]  # iteration 0 only
     assert [args for name, args in calls if name == "clear_memory"] == [{"drop": True}]  # the unit's end only
@@ -79,23 +73,7 @@ async def test_from_contract_3_3_a_unit_clears_with_its_first_reset_and_records_
     ]
 
 
-async def test_before_contract_3_3_a_unit_makes_the_calls_that_contract_knows(tmp_path: Path) -> None:
-    calls, rows = await run_unit(tmp_path, "3.2")
-    assert [name for name, _ in calls if name != "begin_task"] == [
-        "reset_world",
-        "clear_memory",
-        *["check_task"] * 2,
-        "reset_world",
-        *["check_task"] * 2,
-        "clear_memory",
-    ]
-    assert not any("clear_memory" in args or "record" in args for _, args in calls)
-    _, newer_rows = await run_unit(tmp_path, "3.3")
-    strip = {"wall_s", "llm_latency_s", "provenance", "trace"}
-    assert [r.model_dump(exclude=strip) for r in rows] == [r.model_dump(exclude=strip) for r in newer_rows]
-
-
 async def test_a_unit_that_keeps_its_memory_writes_every_verdict(tmp_path: Path) -> None:
-    calls, _ = await run_unit(tmp_path, "3.3", keep_memory=True)
+    calls, _ = await run_unit(tmp_path, keep_memory=True)
     assert not any("record" in args for name, args in calls if name == "check_task")
     assert not any(name == "clear_memory" for name, _ in calls)
