@@ -149,13 +149,24 @@ class Robot:
     #: Whether its sessionless driver has sent its issued id back (else it idles out sooner).
     confirmed: bool = True
 
-    async def run(self, fn: Callable[[RobotSession], T], limiter: anyio.CapacityLimiter | None = None) -> T:
+    async def run(
+        self, fn: Callable[[RobotSession], T], limiter: anyio.CapacityLimiter | None = None, *, tool: str | None = None
+    ) -> T:
         """Run `fn(session)` on a worker thread, one call at a time on this robot, to completion
-        (a cancelled call still finishes its action: the world is always left consistent)."""
+        (a cancelled call still finishes its action: the world is always left consistent). The robot
+        is made ready first (`RobotSession.ready`: a recycled robot's world put back), knowing the
+        `tool` a call runs (None: a read)."""
+
+        def ready_then(session: RobotSession) -> T:
+            session.ready(tool)
+            return fn(session)
+
         async with self.lock:
             self.last_call = self.clock()
             try:
-                return await anyio.to_thread.run_sync(fn, self.session, abandon_on_cancel=False, limiter=limiter)
+                return await anyio.to_thread.run_sync(
+                    ready_then, self.session, abandon_on_cancel=False, limiter=limiter
+                )
             finally:
                 self.last_call = self.clock()
 
@@ -309,14 +320,14 @@ class Fleet:
             )
         return f"all {self.capacity} {FLEET_FULL} (--robots {self.capacity}); " + advice
 
-    async def call(self, robot: Robot, fn: Callable[[RobotSession], T]) -> T:
+    async def call(self, robot: Robot, fn: Callable[[RobotSession], T], *, tool: str | None = None) -> T:
         """Run `fn` on `robot` (see `Robot.run`); afterwards, if the memories are due to be closed
         (`Memories.due`), hold new calls, let the running ones finish, and close them all."""
         while self._gate is not None:
             await self._gate.wait()
         self._calls += 1
         try:
-            return await robot.run(fn, self.limiter)
+            return await robot.run(fn, self.limiter, tool=tool)
         finally:
             self._calls -= 1
             if self._calls == 0:

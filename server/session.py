@@ -88,7 +88,7 @@ class RobotSession:
         options = {"randomize": True} if config.randomize else None
         #: A recycled robot whose world waits to be put back to its start (see `recycle`).
         self._recycled = False
-        self.world = world or World(config.scene, seed=config.seed, options=options, gui=config.gui)
+        self.world: World = world or World(config.scene, seed=config.seed, options=options, gui=config.gui)
         #: The worlds by scene name: the session's own, and the last other scene a suite instance
         #: switched to (built headless, kept while instances stay in it); `reset` without an instance
         #: comes back to the session's own.
@@ -163,26 +163,23 @@ class RobotSession:
         """Make this robot as good as new for its next driver (a fleet reuses robots): the world at
         its start, a new episode, an empty scratchpad, the configured memory namespace and settings.
 
-        The world (and with it the episode and the scratchpad) is put back when it is first used,
-        unless that use resets it anyway: a harness's next unit begins with `reset_world`, and a
-        second rebuild of the world right before its own cost a fleet 17 ms per unit."""
+        The world (and with it the episode and the scratchpad) is put back by `ready`, before the
+        robot's next call, unless that call resets it anyway: a harness's next unit begins with
+        `reset_world`, and a second rebuild of the world right before its own cost a fleet 17 ms per unit."""
         self.use_namespace(self.config.namespace)
         self.memory_labels = self.config.memory_labels
         self.search_k = self.config.search_k
         self.observe = self.config.observe
         self._recycled = True
 
-    @property
-    def world(self) -> World:
-        """The world the robot acts in (a recycled robot's, back at its start: see `recycle`)."""
-        if self._recycled:
-            self._recycled = False
+    def ready(self, tool: str | None = None) -> None:
+        """Before a call (`tool`, or a read): a recycled robot's world back at its start, unless the
+        call is a reset_world that rebuilds it anyway (with a seed of its own, or none to carry on from)."""
+        if not self._recycled:
+            return
+        self._recycled = False
+        if not (tool == "reset_world" and self.config.seed is None):
             self.reset(seed=self.config.seed, options={"randomize": True} if self.config.randomize else None)
-        return self._world
-
-    @world.setter
-    def world(self, world: World) -> None:
-        self._world = world
 
     def warm_up(self) -> None:
         """Open the memory and load the embedding model now (checksum, ONNX session, tokenizer), so the
@@ -209,10 +206,7 @@ class RobotSession:
         of the episode's calls (unless the caller does not: a client watching the driver's robot),
         and the first after end_task begins a new episode, unless it is the same end_task again (a
         retry of a call whose answer was lost: it answers for the episode that ended)."""
-        # reset_world resets a recycled robot's world itself (with a seed of its own, or none to
-        # carry on from): no need to put it back first.
-        if self._recycled and tool.name == "reset_world" and self.config.seed is None:
-            self._recycled = False
+        self.ready(tool.name)
         seen = len(self.world.perturbation_events)
         if tool.counts_as_episode_call and (caller is None or caller.counts):
             retry = tool.ends_episode and self.episode.report == dict(arguments)

@@ -98,12 +98,12 @@ class AppState:
         """
         return await self.run_on(await self.robot(ctx), fn)
 
-    async def run_on(self, robot: Robot, fn: Callable[[RobotSession], T]) -> T:
+    async def run_on(self, robot: Robot, fn: Callable[[RobotSession], T], *, tool: str | None = None) -> T:
         """Run `fn(session)` on `robot`, serialised, to completion; a `ValueError` (bad input), a
         `WorldError` (an action past its bounds) or the memory's storage failing (`storage_problem`)
         becomes a tool error with its reason, never the SDK's bare "Error executing tool X"."""
         try:
-            return await self.fleet.call(robot, fn)
+            return await self.fleet.call(robot, fn, tool=tool)
         except (ValueError, WorldError) as exc:
             raise ToolError(str(exc)) from exc
         except Exception as exc:  # the memory's storage failed (a full disk, a read-only database): say why

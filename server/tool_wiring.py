@@ -212,7 +212,9 @@ def register_tool(mcp: MCPServer[AppState], tool: Tool[Any], access: Access) -> 
         try:
             with collecting(records.append if listening else None):
                 result, happened = await state.run_on(
-                    robot, lambda session: (session.invoke(tool, arguments, caller), session.perturbations)
+                    robot,
+                    lambda session: (session.invoke(tool, arguments, caller), session.perturbations),
+                    tool=tool.name,
                 )
         finally:
             if records:

@@ -249,7 +249,8 @@ async def test_a_sessionless_drivers_robot_is_freed_after_it_goes_quiet(tmp_path
         clock.now = 11  # one and two have both been quiet past idle_s
         r3 = await fleet.robot_for(three)
         assert r3 in (r1, r2) and fleet.in_use() == 1
-        assert r3.session.world.robot_location() == "Front Door", "recycled: back at the start"
+        where = await r3.run(lambda s: s.world.robot_location())  # as its next driver reads it
+        assert where == "Front Door", "recycled: back at the start"
         assert len(fleet.robots) == 2, "no robot built past the capacity"
     finally:
         fleet.close()
