@@ -12,6 +12,7 @@ from typing import Any
 
 import pytest
 from mcp import Client
+from mcp_types import TextResourceContents
 
 from tests.helpers import APP_TOOLS, ROBOT_TOOLS, stdio_params
 
@@ -44,6 +45,14 @@ async def test_a_plain_client_lists_the_app_and_the_tools_that_name_it(tmp_path:
         assert all("visibility" not in ui(tools[name].meta) for name in LINKED), "the model sees the robot tools"
         assert ui(tools["robot_view"].meta)["visibility"] == ["app"], "robot_view is the app's alone"
         assert all(ui(tools[name].meta) is None for name in ROBOT_TOOLS - LINKED)
+
+        read = await client.read_resource(URI)
+        [page] = read.contents
+        assert isinstance(page, TextResourceContents) and page.mime_type == MIME
+        assert ui(page.meta) == {"csp": NO_NETWORK, "prefersBorder": True}, "hosts read the CSP from the content"
+        assert page.text.startswith("<!doctype html>") and "Kitchen" not in page.text, "no data in the HTML"
+        for remote in ("http://", "https://", "//cdn", ' src="http'):
+            assert f'src="{remote}' not in page.text and f'href="{remote}' not in page.text
 
         moved = await client.call_tool("move_to", {"location": "Kitchen Table"})
         assert not moved.is_error and isinstance(moved.structured_content, dict)
