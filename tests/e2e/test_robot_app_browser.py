@@ -8,77 +8,32 @@ Screenshots: build/screenshots/robot_app_*.png (opened by hand)."""
 from __future__ import annotations
 
 import json
-import shutil
-import subprocess
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
 
 import anyio
 import pytest
 import yaml
 from mcp import Client
-from mcp_types import CallToolResult, TextResourceContents
 
 from robocog.assets import ASSETS_DIR
+from tests.app_host import host_script as build_host
+from tests.app_host import missing, open_app, relay
 from tests.browser import browser_page, screenshot_path
-from tests.helpers import ROOT, T1, T1_SEQUENCE, action_args, http_server
+from tests.helpers import T1, T1_SEQUENCE, action_args, http_server
 
 pytestmark = pytest.mark.anyio
 
-URI = "ui://robocog/robot"
-MODULES = ROOT / ".cache" / "app" / "node_modules"
 HTML_NAME = '<img src=x onerror="document.body.dataset.pwned=1">'
 
 
 @pytest.fixture(scope="module")
 def host_script(tmp_path_factory: pytest.TempPathFactory) -> str:
     """The test host's script, bundled from tests/app_host/host.js with the pinned esbuild (offline)."""
-    node = shutil.which("node")
-    if node is None:
-        pytest.skip("node is missing: the robot app's host page is bundled with Node.js")
-    if not (MODULES / "esbuild").is_dir():
-        pytest.skip("the robot app's build tools are not installed: `make app-deps` (make test does it)")
-    out = tmp_path_factory.mktemp("host") / "host.js"
-    done = subprocess.run(
-        [node, str(ROOT / "assets" / "app" / "build.mjs"), "--host", str(out)], capture_output=True, text=True
-    )
-    assert done.returncode == 0, done.stderr
-    return out.read_text(encoding="utf-8")
-
-
-def host_page(script: str) -> str:
-    style = "body{margin:0;background:#eee}#app{width:1100px;height:620px;border:0;background:#fff}"
-    return f'<!doctype html><html><head><style>{style}</style></head><body><div id="slot"></div><script>{script}</script></body></html>'  # noqa: E501
-
-
-def wire(result: CallToolResult) -> dict[str, Any]:
-    """A tool result as it travels over MCP (camelCase, no nulls): what a host hands the page."""
-    return result.model_dump(mode="json", by_alias=True, exclude_none=True)
-
-
-async def open_app(page: Any, client: Client, script: str) -> Any:
-    """Load the app from the server into the host's sandboxed iframe; the page's frame, once ready."""
-
-    async def call_tool(params: str) -> str:
-        asked = json.loads(params)
-        return json.dumps(wire(await client.call_tool(asked["name"], asked.get("arguments") or {})))
-
-    read = await client.read_resource(URI)
-    [resource] = read.contents
-    assert isinstance(resource, TextResourceContents)
-    await page.expose_function("hostCallTool", call_tool)
-    await page.set_content(host_page(script))
-    await page.evaluate("([html, meta]) => robocogHost.load(html, meta)", [resource.text, resource.meta])
-    frame = page.frame_locator("#app")
-    await frame.locator("body[data-ready=true]").wait_for(timeout=30_000)
-    return page.frames[1]
-
-
-async def relay(page: Any, client: Client, tool: str, arguments: dict[str, Any]) -> CallToolResult:
-    result = await client.call_tool(tool, arguments)
-    await page.evaluate("([i, r]) => robocogHost.relay(i, r)", [arguments, wire(result)])
-    return result
+    why = missing()
+    if why is not None:
+        pytest.skip(why)
+    return build_host(tmp_path_factory.mktemp("host") / "host.js")
 
 
 @pytest.fixture
