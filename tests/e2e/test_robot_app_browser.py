@@ -97,3 +97,24 @@ async def test_a_name_holding_html_shows_as_text_and_runs_nothing(tmp_path: Path
             assert HTML_NAME in (await frame.text_content("#calls") or "")
             assert await frame.eval_on_selector_all("img", "imgs => imgs.map(i => i.id)") == ["camera"]
             assert await frame.evaluate("() => document.body.dataset.pwned") is None, "no script of the name ran"
+
+
+async def test_the_app_shows_furniture_open_and_closed(tmp_path: Path, host_script: str) -> None:
+    with http_server(tmp_path / "server.log", "--scene", "kitchen_plus", "--data-dir", str(tmp_path / "m")) as url:
+        async with Client(url) as client, browser_page(1120, 640) as page:
+            frame = await open_app(page, client, host_script)
+            states = "() => JSON.parse(document.getElementById('map').dataset.furniture).map(f => f[0] + ':' + f[1])"
+            assert set(await frame.evaluate(states)) == {
+                "kitchen_drawer:closed",
+                "kitchen_cabinet:closed",
+                "fridge:closed",
+            }
+            for tool, arguments in [("move_to", {"location": "Fridge"}), ("open", {"furniture": "fridge"})]:
+                result = await relay(page, client, tool, arguments)
+                assert not result.is_error, result.content
+            await frame.wait_for_function("() => robocogApp.paints.length >= 2", timeout=30_000)
+            await page.screenshot(path=str(screenshot_path("robot_app_fridge_open.png")))
+            assert "fridge:open" in await frame.evaluate(states)
+            assert "kitchen_drawer:closed" in await frame.evaluate(states)
+            tools = await frame.eval_on_selector_all("#calls li", "items => items.map(li => li.dataset.tool)")
+            assert tools == ["open", "move_to"]
