@@ -50,8 +50,12 @@ def wire(result: CallToolResult) -> dict[str, Any]:
     return result.model_dump(mode="json", by_alias=True, exclude_none=True)
 
 
-async def open_app(page: Any, client: Client, script: str) -> Any:
-    """Load the app from the server into the host's sandboxed iframe; the page's frame, once ready."""
+async def open_app(
+    page: Any, client: Client, script: str, first: tuple[str, dict[str, Any], CallToolResult] | None = None
+) -> Any:
+    """Load the app from the server into the host's sandboxed iframe and, as a host does for the call
+    it opened the page for, hand it `first` (that call's tool, input and result); the page's frame,
+    once it has drawn the world."""
 
     async def call_tool(params: str) -> str:
         asked = json.loads(params)
@@ -63,6 +67,9 @@ async def open_app(page: Any, client: Client, script: str) -> Any:
     await page.expose_function("hostCallTool", call_tool)
     await page.set_content(host_page(script))
     await page.evaluate("([html, meta]) => robocogHost.load(html, meta)", [resource.text, resource.meta])
+    if first is not None:
+        _, arguments, result = first
+        await page.evaluate("([i, r]) => robocogHost.relay(i, r)", [arguments, wire(result)])
     await page.frame_locator("#app").locator("body[data-ready=true]").wait_for(timeout=30_000)
     return page.frames[1]
 

@@ -118,3 +118,23 @@ async def test_the_app_shows_furniture_open_and_closed(tmp_path: Path, host_scri
             assert "kitchen_drawer:closed" in await frame.evaluate(states)
             tools = await frame.eval_on_selector_all("#calls li", "items => items.map(li => li.dataset.tool)")
             assert tools == ["open", "move_to"]
+
+
+async def test_the_app_shows_the_robot_its_calls_act_on_in_a_fleet(tmp_path: Path, host_script: str) -> None:
+    """On a fleet, each handle has its own robot: the page asks about the one whose calls it is given."""
+    args = ("--robots", "3", "--data-dir", str(tmp_path / "m"))
+    with http_server(tmp_path / "server.log", *args) as url:
+        async with Client(url) as mine, Client(url) as theirs, browser_page(1120, 640) as page:
+            other = (await theirs.call_tool("look_around", {})).structured_content
+            assert isinstance(other, dict) and other["robot_id"]
+            moved = await theirs.call_tool("move_to", {"location": "Living Room", "robot_id": other["robot_id"]})
+            assert not moved.is_error, moved.content
+            first = await mine.call_tool("look_around", {})
+            assert isinstance(first.structured_content, dict)
+            handle = first.structured_content["robot_id"]
+            assert handle and handle != other["robot_id"]
+            frame = await open_app(page, mine, host_script, first=("look_around", {}, first))
+            await relay(page, mine, "move_to", {"location": "Kitchen Table", "robot_id": handle})
+            await frame.wait_for_function("() => robocogApp.paints.length >= 2", timeout=30_000)
+            assert await frame.get_attribute("#map", "data-location") == "Kitchen Table"
+            assert await frame.evaluate("() => robocogApp.robotId") == handle

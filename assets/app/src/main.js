@@ -186,7 +186,14 @@ app.onhostcontextchanged = () => {};
 app.onteardown = async () => ({});
 window.addEventListener("resize", draw);
 
+// A host that opened the page for a call hands it that call's input (with the robot's handle, where
+// the client has one) and result: the first read waits a moment for them, so that it asks about the
+// robot the calls act on (without a handle, a fleet would give the page a robot of its own).
+const FIRST_READ_MS = 800;
 app.connect(new PostMessageTransport(window.parent, window.parent)).then(
-  () => { $("connection").textContent = "connected"; refresh(true); },
+  () => {
+    $("connection").textContent = "connected";
+    setTimeout(() => { if (!view.world && !busy && view.results.length === 0) refresh(true); }, FIRST_READ_MS);
+  },
   (e) => { $("connection").textContent = `not connected: ${e && e.message ? e.message : e}`; },
 );
