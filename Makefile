@@ -8,7 +8,7 @@ export LITELLM_LOCAL_MODEL_COST_MAP := True
 export ANONYMIZED_TELEMETRY := False
 export PYTHONDONTWRITEBYTECODE := 1
 
-.PHONY: help demo world-demo test chromium inspector-cli bench local-model soak fuzz lint format server inspector conformance docs bundle bundle-check clean
+.PHONY: help demo world-demo test chromium inspector-cli app app-deps bench local-model soak fuzz lint format server inspector conformance docs bundle bundle-check clean
 
 help: ## Show this help
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-12s %s\n", $$1, $$2}'
@@ -52,7 +52,7 @@ world-demo: $(CORE) ## T1 then T2 as fixed action sequences on the world itself 
 # The suite runs on TEST_WORKERS processes (pytest-xdist), each taking whole modules, so a module's
 # shared server or Ray cluster starts once; `make test TEST_WORKERS=0` runs it in one process.
 TEST_WORKERS ?= 2
-test: $(STAMP) $(TYPES) chromium inspector-cli ## Run the test suite (offline; no API key needed)
+test: $(STAMP) $(TYPES) chromium inspector-cli app-deps ## Run the test suite (offline; no API key needed)
 	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) --dist loadfile
 
 # The viewers' browser tests drive the system's Chromium (Playwright cannot download its own here):
@@ -75,6 +75,22 @@ inspector-cli: ## Install the MCP Inspector's CLI for the tests (needs Node.js a
 		npm install --silent --no-audit --no-fund --prefix .cache/inspector @modelcontextprotocol/inspector@$(INSPECTOR_VERSION) >/dev/null 2>&1 \
 		|| echo "the MCP Inspector could not be installed: its test will skip"; \
 	else echo "npm is missing: the MCP Inspector test will skip (install Node.js)"; fi
+
+# The robot app's page (assets/app/robot.html, an MCP App) is built from assets/app/src by esbuild, with
+# ext-apps and esbuild pinned by assets/app/package-lock.json and installed into .cache/app (never at test
+# time): the tests check that the committed page is what its sources build, and drive it in Chromium.
+APP_LOCK := .cache/app/package-lock.json
+app-deps: ## Install the robot app's build tools (ext-apps, esbuild; pinned) into .cache/app (needs npm)
+	@if [ -d .cache/app/node_modules ] && cmp -s assets/app/package-lock.json $(APP_LOCK); then :; \
+	elif command -v npm >/dev/null 2>&1; then \
+		echo "installing the robot app's build tools into .cache/app"; mkdir -p .cache/app; \
+		cp assets/app/package.json assets/app/package-lock.json .cache/app/; \
+		npm ci --silent --no-audit --no-fund --prefix .cache/app >/dev/null 2>&1 \
+		|| { rm -f $(APP_LOCK); echo "the robot app's build tools could not be installed: its tests will skip"; }; \
+	else echo "npm is missing: the robot app's build check and browser tests will skip (install Node.js)"; fi
+
+app: app-deps ## Rebuild the robot app's page, assets/app/robot.html, from assets/app/src (needs Node.js)
+	node assets/app/build.mjs
 
 BENCH_ONLY ?=
 bench: $(STAMP) chromium ## Print the performance figures as JSON and record them in docs/figures.json (BENCH_ONLY=startup,overhead picks some)

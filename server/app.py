@@ -52,7 +52,8 @@ from robocog.server.ownership import Presence
 from robocog.server.resources import Current, register_completions, register_prompts, register_resources
 from robocog.server.state import REQUEST, AppState
 from robocog.server.tool_wiring import Access, invalid_arguments, register_tool
-from robocog.server.tools import CONTROL_TOOLS, ROBOT_TOOLS
+from robocog.server.tools import APP_TOOLS, CONTROL_TOOLS, ROBOT_TOOLS
+from robocog.server.ui import register_app, tool_meta
 from robocog.shared import __version__
 from robocog.shared.errors import ConfigError
 from robocog.shared.protocol import CONTRACT_VERSION, DRIVER_META_KEY
@@ -222,6 +223,7 @@ def build_server(
     robots: int = 1,
     per_driver: bool | None = None,
     open_namespaces: int = DEFAULT_OPEN_NAMESPACES,
+    app: bool = True,
 ) -> MCPServer[AppState]:
     """The robocog MCP server for `config`; the `eval` profile adds the harness controls; `access`
     sets the bearer token, the consent gate, the published tools and the lease; `view`, a port,
@@ -229,7 +231,8 @@ def build_server(
     makes it a fleet: each driver (an HTTP session, a connection) gets a robot of its own (as with
     `per_driver`, for one robot too: a fleet's process behind a router). Every tool takes the optional
     `robot_id` (a robot handle, for clients without a session: `ownership.py`), on every transport, so
-    that the contract is one; clients never offer it to a model (`shared.provenance.function_definition`)."""
+    that the contract is one; clients never offer it to a model (`shared.provenance.function_definition`).
+    `app` publishes the robot app (`ui.py`: its page, the robot tools' links to it, its own tool)."""
     config = config or SessionConfig()
     access = access or AccessConfig()
     if robots < 1:
@@ -237,9 +240,9 @@ def build_server(
     if robots > 1 and view is not None:
         raise ConfigError("--view watches one robot: it cannot be combined with a fleet (--robots above 1)")
     if access.allow_tools is not None:
-        unknown = access.allow_tools - {t.name for t in ROBOT_TOOLS}
+        unknown = access.allow_tools - {t.name for t in ROBOT_TOOLS + APP_TOOLS}
         if unknown:
-            known = ", ".join(t.name for t in ROBOT_TOOLS)
+            known = ", ".join(t.name for t in ROBOT_TOOLS + APP_TOOLS)
             raise ConfigError(f"--allow-tools: no tool called {', '.join(sorted(unknown))}; the tools are {known}")
     current = Current()
 
@@ -313,10 +316,13 @@ def build_server(
     install_log_handlers(log_level)
     trace_only_when_traced(mcp)
     guard = Access(gate=ConsentGate() if access.confirm_actions else None)
-    published = [t for t in ROBOT_TOOLS if access.allow_tools is None or t.name in access.allow_tools]
+    allowed = [t for t in ROBOT_TOOLS + APP_TOOLS if access.allow_tools is None or t.name in access.allow_tools]
+    published = [t for t in allowed if app or t.kind != "app"]
     for tool in published + list(CONTROL_TOOLS if profile == "eval" else ()):
-        register_tool(mcp, tool, guard)
+        register_tool(mcp, tool, guard, meta=tool_meta(tool.name, tool.kind) if app else None)
     register_resources(mcp, current)
+    if app:
+        register_app(mcp)
     register_prompts(mcp)
     register_completions(mcp, current)
     register_logging_and_subscriptions(mcp)

@@ -159,6 +159,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             robots=int(args.robots),
             per_driver=True if os.environ.get("ROBOCOG_FLEET_PROCESS") else None,
             open_namespaces=args.memory_namespaces,
+            app=not args.no_app,
         )
     except ConfigError as exc:
         print(f"robocog-server: {exc}", file=sys.stderr)

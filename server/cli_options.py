@@ -67,6 +67,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="also serve the live viewer (a web page: the map, the camera, the tool calls as they happen) on "
         "http://127.0.0.1:PORT/ (default port: 8766; 0 picks a free one), with any transport",
     )
+    t.add_argument(
+        "--no-app",
+        action="store_true",
+        help="publish no robot app (the MCP App ui://robocog/robot that hosts such as Claude Desktop show in the "
+        "chat, the robot tools' links to it, and its robot_view tool)",
+    )
     a = p.add_argument_group("access (HTTP: see the docs' Security page, docs/security.md)")
     a.add_argument(
         "--auth-token",

@@ -1,7 +1,7 @@
 """Every read of a private name of a library the server is built on, in one place.
 
 The MCP SDK (mcp 2.3) and ChromaDB (1.5) give no public way to a few things the server needs; each
-read below names what it reads and why. `tests/unit/test_server_compat.py` runs every one of them
+read below names what it reads and why. `tests/integration/test_private_reads.py` runs every one of them
 against the installed libraries' real objects and fails, naming the read, when an upgrade moves
 what it finds: an upgrade can no longer break one silently behind a `getattr` default.
 

@@ -144,8 +144,11 @@ class Access:
         return self.gate is not None and tool.kind == "robot" and tool.changes_world
 
 
-def register_tool(mcp: MCPServer[AppState], tool: Tool[Any], access: Access) -> None:
-    """Publish `tool`: its arguments become the input schema, its result model the output schema.
+def register_tool(
+    mcp: MCPServer[AppState], tool: Tool[Any], access: Access, meta: dict[str, Any] | None = None
+) -> None:
+    """Publish `tool`: its arguments become the input schema, its result model the output schema;
+    `meta` is its `_meta` (the robot app's page, `ui.py`).
 
     The handler the SDK sees has the tool's own parameters (keyword-only) plus the request context;
     the call runs on the session, serialised, and a result with status "failure" is a tool error.
@@ -158,7 +161,7 @@ def register_tool(mcp: MCPServer[AppState], tool: Tool[Any], access: Access) -> 
     async def handler(ctx: Context[AppState], **arguments: Any) -> CallToolResult:
         events = ctx.request_context.lifespan_context.events
         minted: list[str] = []  # a handle this call mints for its caller (act says), handed over last
-        if events is None:
+        if events is None or tool.kind == "app":  # the live viewer shows the robot's calls, not the app's
             answer = await act(ctx, arguments, minted)
         else:
             shown = {k: v for k, v in arguments.items() if k not in ("consent", ROBOT_ID)}
@@ -247,7 +250,14 @@ def register_tool(mcp: MCPServer[AppState], tool: Tool[Any], access: Access) -> 
         "return": returns,
     }
     handler.__name__ = handler.__qualname__ = tool.name
-    mcp.add_tool(handler, name=tool.name, title=tool.title, description=tool.description, annotations=tool.annotations)
+    mcp.add_tool(
+        handler,
+        name=tool.name,
+        title=tool.title,
+        description=tool.description,
+        annotations=tool.annotations,
+        meta=meta,
+    )
 
 
 def invalid_arguments(tool: str, error: ValidationError) -> str:

@@ -27,6 +27,12 @@ MEMORY_FAILED = "the robot's episodic memory failed"
 #: The eval profile's controls for harnesses: a client never offers them to the model it drives.
 CONTROL_TOOLS = frozenset({"reset_world", "begin_task", "check_task", "clear_memory"})
 
+#: The robot app (an MCP App, SEP-1865): its page's URI and MIME type, and the tools meant for it alone
+#: (`_meta.ui.visibility: ["app"]`): a client never offers them to a model.
+APP_URI = "ui://robocog/robot"
+APP_MIME_TYPE = "text/html;profile=mcp-app"
+APP_TOOLS = frozenset({"robot_view"})
+
 #: The eight robot tools of the paper, in its order: what a text-only model is offered (robocog's own
 #: client; robocog.inspect). The server's ROBOT_TOOLS are these, the VISION_TOOLS and the FURNITURE_TOOLS (a
 #: test holds it).
@@ -51,7 +57,7 @@ FURNITURE_TOOLS = frozenset({"open", "close"})
 
 #: The version of the published MCP contract (assets/contract/, CHANGELOG.md there). The server announces
 #: it in its instructions as "MCP contract X.Y"; `robocog contract` reads it back from there.
-CONTRACT_VERSION = "4.1"
+CONTRACT_VERSION = "4.2"
 
 #: The contract version in a server's instructions: "MCP contract 1.0", "contract 2.3".
 CONTRACT_VERSION_PATTERN = re.compile(r"\bcontract\s+v?(\d+(?:\.\d+)+)\b", re.IGNORECASE)

@@ -24,7 +24,7 @@ from typing import Any
 from pydantic import BaseModel, ConfigDict, Field
 
 from robocog.assets import ASSETS_DIR
-from robocog.shared.protocol import CONTROL_TOOLS, FURNITURE_TOOLS, ROBOT_ID_ARG, VISION_TOOLS
+from robocog.shared.protocol import APP_TOOLS, CONTROL_TOOLS, FURNITURE_TOOLS, ROBOT_ID_ARG, VISION_TOOLS
 
 
 def canonical_json(value: Any) -> bytes:
@@ -54,10 +54,12 @@ def function_definition(name: str, description: str | None, input_schema: dict[s
 
 
 def offered(name: str, *, vision: bool, furniture: bool = True) -> bool:
-    """A tool a model is offered: never the harness's controls, the camera only to a vision model, open
-    and close only with `furniture` (under the robocog protocol, in a world with furniture that opens)."""
+    """A tool a model is offered: never the harness's controls or the robot app's own, the camera only
+    to a vision model, open and close only with `furniture` (under the robocog protocol, in a world
+    with furniture that opens)."""
     return (
         name not in CONTROL_TOOLS
+        and name not in APP_TOOLS
         and (vision or name not in VISION_TOOLS)
         and (furniture or name not in FURNITURE_TOOLS)
     )

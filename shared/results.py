@@ -7,7 +7,7 @@ Every failure is a result with `status: "failure"`, an `error` code and a messag
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Any, Literal
 
 from pydantic import BaseModel, Field, PrivateAttr
 
@@ -276,6 +276,21 @@ class TaskVerdict(BaseModel):
     success: bool
     reason: str = Field(description="one line summing up the verdict")
     objects: list[ObjectVerdict] = []
+
+
+class RobotView(WithImage):
+    """What the robot app (`ui://robocog/robot`) draws: the map's geometry, the ground truth, and the
+    verdict of the episode's task where the server knows the task; the camera's picture when asked."""
+
+    status: Status = "success"
+    scene: dict[str, Any] | None = Field(
+        default=None, description="the map's geometry (rooms, walls, furniture, positions, locations, edges)"
+    )
+    world: WorldState = Field(description="the ground truth: the robot, each object, each position, the furniture")
+    task_id: str | None = Field(default=None, description="the episode's task, where the server knows it")
+    verdict: TaskVerdict | None = Field(default=None, description="the task's verdict for the world as it is now")
+    episode: int = Field(description="the number of the current episode")
+    tool_calls: int = Field(description="robot tool calls made in the episode")
 
 
 # --- working and episodic memory, episodes --------------------------------------------------------

@@ -57,6 +57,9 @@ ROBOT_TOOLS = frozenset(
 #: The eval profile's controls for harnesses; never offered to a model.
 CONTROL_TOOLS = frozenset({"reset_world", "begin_task", "check_task", "clear_memory"})
 
+#: The robot app's own tool (every profile, unless --no-app); never offered to a model.
+APP_TOOLS = frozenset({"robot_view"})
+
 # --- the paper's semantic map (BRIEF.md, "The world") --------------------------------------------
 
 PAPER_EDGES = [

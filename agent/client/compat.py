@@ -1,7 +1,7 @@
 """Every read of a private name of a library the client is built on, in one place.
 
 The MCP SDK (mcp 2.3) and LiteLLM (1.106+) give no public way to a few things the client needs; each
-read below names what it reads and why. `tests/unit/test_client_compat.py` runs every one of them
+read below names what it reads and why. `tests/integration/test_private_reads.py` runs every one of them
 against the installed libraries' real objects and fails, naming the read, when an upgrade moves what
 it finds. At run time a read that finds nothing answers as documented (the client then does without:
 no shared validators, no cost), so an upgrade degrades a figure, never a run.

@@ -14,6 +14,7 @@ from robocog.server.tools import (
     look_around,
     move_to,
     place,
+    robot_view,
     scratchpad,
     search_memory,
 )
@@ -42,4 +43,7 @@ CONTROL_TOOLS: tuple[Tool, ...] = (
     controls.CLEAR_MEMORY,
 )
 
-__all__ = ["CONTROL_TOOLS", "ROBOT_TOOLS", "Tool"]
+#: The robot app's own tools (`robocog.server.ui`): hidden from models, left out with `--no-app`.
+APP_TOOLS: tuple[Tool, ...] = (robot_view.TOOL,)
+
+__all__ = ["APP_TOOLS", "CONTROL_TOOLS", "ROBOT_TOOLS", "Tool"]

@@ -91,8 +91,9 @@ class Tool(Generic[R]):
     title: str
     annotations: ToolAnnotations
     run: Callable[..., R]
-    #: "robot": offered to models in every profile; "control": the eval profile's harness controls.
-    kind: Literal["robot", "control"] = "robot"
+    #: "robot": offered to models in every profile; "control": the eval profile's harness controls;
+    #: "app": for the robot app alone (`robocog.server.ui`), hidden from models.
+    kind: Literal["robot", "control", "app"] = "robot"
     #: The description when it is not `run`'s docstring.
     doc: str | None = None
     #: A successful call can change the world (the robot, an object): subscribers of the world's
@@ -119,7 +120,7 @@ class Tool(Generic[R]):
 
     @property
     def counts_as_episode_call(self) -> bool:
-        """Robot tools are the episode's tool calls; a harness's controls are not."""
+        """Robot tools are the episode's tool calls; a harness's controls and the app's reads are not."""
         return self.kind == "robot"
 
     @property

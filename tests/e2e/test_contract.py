@@ -249,6 +249,8 @@ async def test_every_tool_result_conforms_to_its_output_schema(
     await call("clear_memory", False, drop=True)  # the server's own namespace cannot be dropped
     await call("open", False, furniture="kitchen_shelf")  # the paper's household has nothing that opens
     await call("close", False, furniture="fridge")
+    await call("robot_view", True, camera_frame=True)  # the robot app's own read
+    await call("robot_view", False, scene="maybe")
     # open and close succeed in a world with containers: the next test.
     assert succeeded == set(tools) - FURNITURE_TOOLS
     # every tool takes robot_id (a robot handle, for clients without a session); its own arguments can be wrong

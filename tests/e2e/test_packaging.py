@@ -33,7 +33,7 @@ from typing import Any
 import jsonschema
 import pytest
 
-from tests.helpers import ROBOT_TOOLS
+from tests.helpers import APP_TOOLS, ROBOT_TOOLS
 
 REPO = Path(__file__).resolve().parents[2]
 PACKAGING = REPO / "packaging"
@@ -337,7 +337,7 @@ def test_bundle_starts_as_a_host_does(tmp_path: Path) -> None:
             # The seeded environment shares its files with this virtualenv: leave no copy behind.
             shutil.rmtree(bundle_dir / ".venv", ignore_errors=True)
     assert init is not None and init["result"]["serverInfo"]["name"] == "robocog"
-    assert tools is not None and {t["name"] for t in tools["result"]["tools"]} == ROBOT_TOOLS
+    assert tools is not None and {t["name"] for t in tools["result"]["tools"]} == ROBOT_TOOLS | APP_TOOLS
     # The consent error speaks of the extension's setting, by its title, never of a flag the user never typed.
     assert moved is not None and moved["result"]["isError"]
     refusal = moved["result"]["content"][0]["text"]
@@ -361,4 +361,4 @@ async def test_robocog_serve_starts_the_server_a_registry_host_runs(tmp_path: Pa
     )
     async with Client(stdio_client(params, errlog=_tempfile.TemporaryFile("w+"))) as client:
         names = {tool.name for tool in (await client.list_tools()).tools}
-    assert names == ROBOT_TOOLS
+    assert names == ROBOT_TOOLS | APP_TOOLS

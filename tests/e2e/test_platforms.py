@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from tests.e2e.test_packaging import rpc
-from tests.helpers import ROBOT_TOOLS
+from tests.helpers import APP_TOOLS, ROBOT_TOOLS
 
 #: Each POSIX-only thing robocog-server uses at start or in a tool call (shared/process.py lists them),
 #: taken away in the server's process before it starts, as on a system without it.
@@ -128,7 +128,7 @@ def test_the_server_starts_and_acts_without(absent: str, tmp_path: Path) -> None
             raise AssertionError(f"without {absent}:\n{log.read_text(errors='replace')[-3000:]}") from None
     said = log.read_text(errors="replace")
     assert init is not None and "Physics: pybullet" in init["result"]["instructions"]
-    assert tools is not None and {t["name"] for t in tools["result"]["tools"]} == ROBOT_TOOLS
+    assert tools is not None and {t["name"] for t in tools["result"]["tools"]} == ROBOT_TOOLS | APP_TOOLS
     for result in results:
         assert result is not None and not result["result"]["isError"], result
     assert code == 0 and "Traceback" not in said, said

@@ -14,7 +14,16 @@ from robocog.agent.contract.check import dump_contract
 from robocog.server.app import build_server
 from robocog.server.config import SessionConfig
 from robocog.shared.protocol import CONTROL_TOOLS, FURNITURE_TOOLS
-from tests.helpers import CONTRACT_DIR, ROBOT_TOOLS, T1, T1_SEQUENCE, T2_SEQUENCE, action_args, check_snapshot
+from tests.helpers import (
+    APP_TOOLS,
+    CONTRACT_DIR,
+    ROBOT_TOOLS,
+    T1,
+    T1_SEQUENCE,
+    T2_SEQUENCE,
+    action_args,
+    check_snapshot,
+)
 
 pytestmark = pytest.mark.anyio
 
@@ -61,7 +70,7 @@ async def test_eval_profile_contract_matches_snapshot(robot: Client) -> None:
 
 async def test_default_profile_hides_the_eval_controls(plain_robot: Client) -> None:
     names = {t.name for t in (await plain_robot.list_tools()).tools}
-    assert names == ROBOT_TOOLS
+    assert names == ROBOT_TOOLS | APP_TOOLS
     assert not names & CONTROL_TOOLS
     is_error, data = await call(plain_robot, "reset_world")
     assert is_error
@@ -70,13 +79,13 @@ async def test_default_profile_hides_the_eval_controls(plain_robot: Client) -> N
 
 async def test_the_eval_profile_publishes_exactly_the_controls_clients_leave_out(robot: Client) -> None:
     names = {t.name for t in (await robot.list_tools()).tools}
-    assert names == ROBOT_TOOLS | CONTROL_TOOLS
+    assert names == ROBOT_TOOLS | CONTROL_TOOLS | APP_TOOLS
 
 
 async def test_annotations_mark_read_only_tools_and_closed_world(plain_robot: Client) -> None:
     tools = {t.name: t for t in (await plain_robot.list_tools()).tools}
     read_only = {n for n, t in tools.items() if t.annotations and t.annotations.read_only_hint}
-    assert read_only == {"look_around", "view_scratchpad", "search_memory", "look"}
+    assert read_only == {"look_around", "view_scratchpad", "search_memory", "look", "robot_view"}
     assert all(t.annotations and t.annotations.open_world_hint is False for t in tools.values())
     assert all(t.output_schema for t in tools.values())
 
