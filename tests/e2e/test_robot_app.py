@@ -2,11 +2,13 @@
 client, with no robocog code on its side, against a real `robocog-server` process over stdio. It lists
 `ui://robocog/robot` (`text/html;profile=mcp-app`, CSP metadata with no origin), the robot tools name
 it in `_meta.ui.resourceUri` with their text content as before, `robot_view` is for the app alone; with
-`--no-app` none of it is there. The page itself in Chromium: tests/e2e/test_robot_app_browser.py."""
+`--no-app` none of it is there. The MCP Inspector's CLI sees the same over HTTP. The page itself in Chromium: tests/e2e/test_robot_app_browser.py."""
 
 from __future__ import annotations
 
 import json
+import os
+import subprocess
 from pathlib import Path
 from typing import Any
 
@@ -14,10 +16,12 @@ import pytest
 from mcp import Client
 from mcp_types import TextResourceContents
 
-from tests.helpers import APP_TOOLS, ROBOT_TOOLS, stdio_params
+from tests.helpers import APP_TOOLS, ROBOT_TOOLS, ROOT, http_server, stdio_params
 
 pytestmark = pytest.mark.anyio
 
+#: The MCP Inspector's CLI, installed by `make inspector-cli` (`make test` does it where Node.js is).
+INSPECTOR = ROOT / ".cache" / "inspector" / "node_modules" / ".bin" / "mcp-inspector"
 URI = "ui://robocog/robot"
 MIME = "text/html;profile=mcp-app"
 LINKED = {"look_around", "move_to", "grab", "place", "open", "close", "look", "end_task"}
@@ -76,3 +80,27 @@ async def test_no_app_publishes_no_app(tmp_path: Path) -> None:
         tools = (await client.list_tools()).tools
         assert {t.name for t in tools} == ROBOT_TOOLS
         assert [t.name for t in tools if t.meta and "ui" in t.meta] == []
+
+
+def inspector(url: str, *method: str) -> dict[str, Any]:
+    """What the MCP Inspector's CLI (no robocog code) answers for `method` against `url`."""
+    out = subprocess.run(
+        [str(INSPECTOR), "--cli", url, "--transport", "http", "--method", *method],
+        capture_output=True,
+        text=True,
+        timeout=90,
+        env={**os.environ, "NO_COLOR": "1"},
+    )
+    assert out.returncode == 0, out.stderr[-2000:]
+    answer: dict[str, Any] = json.loads(out.stdout[out.stdout.index("{") :])
+    return answer
+
+
+def test_the_mcp_inspector_lists_the_app_and_the_tools_that_name_it(tmp_path: Path) -> None:
+    if not INSPECTOR.exists():
+        pytest.skip("the MCP Inspector's CLI is not installed: `make inspector-cli` installs it (needs Node.js)")
+    with http_server(tmp_path / "server.log", "--data-dir", str(tmp_path / "m")) as url:
+        resources = {r["uri"]: r for r in inspector(url, "resources/list")["resources"]}
+        tools = {t["name"]: t for t in inspector(url, "tools/list")["tools"]}
+    assert resources[URI]["mimeType"] == MIME and ui(resources[URI].get("_meta"))["csp"] == NO_NETWORK
+    assert {name for name, t in tools.items() if (ui(t.get("_meta")) or {}).get("resourceUri") == URI} >= LINKED
