@@ -2,7 +2,8 @@
 client, with no robocog code on its side, against a real `robocog-server` process over stdio. It lists
 `ui://robocog/robot` (`text/html;profile=mcp-app`, CSP metadata with no origin), the robot tools name
 it in `_meta.ui.resourceUri` with their text content as before, `robot_view` is for the app alone; with
-`--no-app` none of it is there. The MCP Inspector's CLI sees the same over HTTP. The page itself in Chromium: tests/e2e/test_robot_app_browser.py."""
+`--no-app` none of it is there. The MCP Inspector's CLI sees the same over HTTP. The page itself in
+Chromium: tests/e2e/test_robot_app_browser.py."""
 
 from __future__ import annotations
 
