@@ -101,6 +101,17 @@ def _serve(port: int, log: Path) -> subprocess.Popen[bytes]:
     raise RuntimeError(f"the llama.cpp server did not start: see {log}")
 
 
+def _stop(server: subprocess.Popen[bytes]) -> None:
+    """Stop a llama.cpp server: SIGTERM, then SIGKILL after 30 s (uvicorn waits for a generation still
+    running when it is told to stop, and the bench once lost a study's figures to that wait)."""
+    server.terminate()
+    try:
+        server.wait(timeout=30)
+    except subprocess.TimeoutExpired:
+        server.kill()
+        server.wait(timeout=30)
+
+
 def _before_site(revision: str, where: Path) -> Path:
     """The code at `revision`, installed into `where/site` (not editable)."""
     source, site = where / "src", where / "site"
@@ -223,8 +234,7 @@ def run() -> dict[str, object]:
                 try:
                     _eval(_study(where, f"{label}-{part}", port, body), site)
                 finally:
-                    server.terminate()
-                    server.wait(timeout=30)
+                    _stop(server)
                 figures.update(_flat(f"local_model.{label}.{part}", _measure(where / f"{label}-{part}.jsonl")))
                 PARTIAL.write_text(json.dumps(figures, indent=1), encoding="utf-8")
     figures["local_model.model"] = (
