@@ -45,15 +45,15 @@ from robocog.server.clients import (
     install_log_handlers,
 )
 from robocog.server.config import AccessConfig, SessionConfig
-from robocog.server.consent import ConsentGate
 from robocog.server.events import EventBus
-from robocog.server.fleet import DEFAULT_OPEN_NAMESPACES, Fleet
-from robocog.server.ownership import Presence
-from robocog.server.resources import Current, register_completions, register_prompts, register_resources
+from robocog.server.robots.consent import ConsentGate
+from robocog.server.robots.fleet import DEFAULT_OPEN_NAMESPACES, Fleet
+from robocog.server.robots.ownership import Presence
 from robocog.server.state import REQUEST, AppState
-from robocog.server.tool_wiring import Access, invalid_arguments, register_tool
 from robocog.server.tools import APP_TOOLS, CONTROL_TOOLS, ROBOT_TOOLS
-from robocog.server.ui import register_app, tool_meta
+from robocog.server.wiring.resources import Current, register_completions, register_prompts, register_resources
+from robocog.server.wiring.tool_wiring import Access, invalid_arguments, register_tool
+from robocog.server.wiring.ui import register_app, tool_meta
 from robocog.shared import __version__
 from robocog.shared.errors import ConfigError
 from robocog.shared.protocol import CONTRACT_VERSION, DRIVER_META_KEY
@@ -194,7 +194,7 @@ def _auth(access: AccessConfig) -> dict[str, Any]:
     """The SDK's auth arguments for a bearer token (none without one)."""
     if access.auth_token is None:
         return {}
-    from robocog.server.http import BearerToken, auth_settings
+    from robocog.server.transport.http import BearerToken, auth_settings
 
     return {"auth": auth_settings(access.url), "token_verifier": BearerToken(access.auth_token)}
 

@@ -14,7 +14,7 @@ from robocog.server.cli_options import build_parser
 from robocog.server.config import DEFAULT_MAX_SESSIONS, event_loop_options
 
 if TYPE_CHECKING:
-    from robocog.server.http import HttpOptions
+    from robocog.server.transport.http import HttpOptions
 
 
 def _port_taken(host: str, port: int) -> str | None:
@@ -32,7 +32,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     follow_parent()  # a fleet process of a router or a harness ends with it
     from robocog.server.config import AccessConfig
-    from robocog.server.http import HttpOptions, generate_token, is_loopback, machine_names, serve
+    from robocog.server.transport.http import HttpOptions, generate_token, is_loopback, machine_names, serve
     from robocog.shared.errors import ConfigError
 
     if args.max_sessions is not None and args.max_sessions < args.robots:
@@ -132,7 +132,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         import pybullet  # noqa: F401
 
     from robocog.server.app import build_server
-    from robocog.server.session import SessionConfig
+    from robocog.server.robots.session import SessionConfig
 
     if args.gui and not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
         print("robocog-server: --gui needs a display and none is set (DISPLAY is empty)", file=sys.stderr)
@@ -171,7 +171,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.transport == "stdio":
             import anyio
 
-            from robocog.server.stdio import serve_stdio
+            from robocog.server.transport.stdio import serve_stdio
 
             anyio.run(serve_stdio, server, backend_options=event_loop_options())
         else:
@@ -196,8 +196,8 @@ def _say_generated_token(args: argparse.Namespace, http: HttpOptions) -> None:
 
 
 def _route(args: argparse.Namespace, argv: list[str], http: HttpOptions) -> int:
-    """Serve the fleet's P processes behind the public address (`robocog.server.router`)."""
-    from robocog.server.router_processes import Fleet, serve
+    """Serve the fleet's P processes behind the public address (`robocog.server.routing.router`)."""
+    from robocog.server.routing.router_processes import Fleet, serve
     from robocog.shared.errors import ConfigError
 
     fleet = Fleet(

@@ -51,8 +51,8 @@ class SessionConfig:
 
 @dataclass(frozen=True)
 class AccessConfig:
-    """Who may do what with the robot (the server's command line maps onto this; see server/http.py
-    for the HTTP side and server/ownership.py for the lease)."""
+    """Who may do what with the robot (the server's command line maps onto this; see server/transport/http.py
+    for the HTTP side and server/robots/ownership.py for the lease)."""
 
     #: A bearer token every HTTP request must carry (None: no authentication, loopback only).
     auth_token: str | None = None

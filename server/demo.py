@@ -12,7 +12,7 @@ import time
 from collections.abc import Sequence
 
 from robocog.server.config import SessionConfig
-from robocog.server.session import RobotSession
+from robocog.server.robots.session import RobotSession
 from robocog.server.tools import ROBOT_TOOLS
 from robocog.server.world.paper import T1_SEQUENCE, T2_SEQUENCE, Action, action_args
 from robocog.server.world.tasks import evaluate, task_catalogue

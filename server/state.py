@@ -17,17 +17,17 @@ from mcp.server.mcpserver.exceptions import ToolError
 
 from robocog.server.clients import Clients
 from robocog.server.events import EventBus
-from robocog.server.fleet import Fleet, Robot
-from robocog.server.handles import DriverIds
 from robocog.server.memory.episodic import storage_problem
-from robocog.server.ownership import HOW_TO_GET_A_HANDLE, Driver
+from robocog.server.robots.fleet import Fleet, Robot
+from robocog.server.robots.handles import DriverIds
+from robocog.server.robots.ownership import HOW_TO_GET_A_HANDLE, Driver
 from robocog.shared.errors import WorldError
 from robocog.shared.protocol import DRIVER_META_KEY
 
 logger = logging.getLogger("robocog.server")
 
 if TYPE_CHECKING:
-    from robocog.server.session import RobotSession
+    from robocog.server.robots.session import RobotSession
 
 T = TypeVar("T")
 

@@ -5,7 +5,7 @@ What robocog-server does only on some systems, and where it does without (tests/
 starts it with each taken away): glibc's malloc arena limit (`limit_malloc_arenas`) and its parent-death
 signal (`die_with_parent`), Linux only; libc's `malloc_trim` after Chroma closes (server/memory/chroma.py),
 where found; uvloop's event loop (server/config.py), where installed; its stdio served from private
-duplicates of fds 0 and 1 (server/stdio.py), where fcntl is; the C runtime's stdio flushed after
+duplicates of fds 0 and 1 (server/transport/stdio.py), where fcntl is; the C runtime's stdio flushed after
 PyBullet prints (server/world/cstdio.py), the universal C runtime on Windows. It handles no signal but
 SIGTERM (which Windows has too) and forks no process; a fleet's router (`--processes`) gives its shared
 Chroma server `preexec_fn=die_with_parent` on POSIX only (Windows refuses a preexec_fn). A study's RAM

@@ -7,11 +7,11 @@ MODEL_META_KEY = "robocog/model"
 
 #: `_meta` key of the driver id: the server issues one to an HTTP client without an MCP session
 #: (protocol 2026-07-28 and later) in the result of its first call that needs a robot, and the client
-#: sends it back on every later call; the robot is held by one driver at a time (server/ownership.py).
+#: sends it back on every later call; the robot is held by one driver at a time (server/robots/ownership.py).
 DRIVER_META_KEY = "robocog/driver"
 
 #: The argument every robot tool and control takes on a client without a session (MCP 2026-07-28 over
-#: HTTP): the robot handle the server minted (SEP-2567; server/ownership.py). A client never offers it to
+#: HTTP): the robot handle the server minted (SEP-2567; server/robots/ownership.py). A client never offers it to
 #: a model: robocog's own client passes the handle itself (or in `_meta["robocog/driver"]`, an alias).
 ROBOT_ID_ARG = "robot_id"
 

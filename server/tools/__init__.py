@@ -43,7 +43,7 @@ CONTROL_TOOLS: tuple[Tool, ...] = (
     controls.CLEAR_MEMORY,
 )
 
-#: The robot app's own tools (`robocog.server.ui`): hidden from models, left out with `--no-app`.
+#: The robot app's own tools (`robocog.server.wiring.ui`): hidden from models, left out with `--no-app`.
 APP_TOOLS: tuple[Tool, ...] = (robot_view.TOOL,)
 
 __all__ = ["APP_TOOLS", "CONTROL_TOOLS", "ROBOT_TOOLS", "Tool"]

@@ -92,7 +92,7 @@ class Tool(Generic[R]):
     annotations: ToolAnnotations
     run: Callable[..., R]
     #: "robot": offered to models in every profile; "control": the eval profile's harness controls;
-    #: "app": for the robot app alone (`robocog.server.ui`), hidden from models.
+    #: "app": for the robot app alone (`robocog.server.wiring.ui`), hidden from models.
     kind: Literal["robot", "control", "app"] = "robot"
     #: The description when it is not `run`'s docstring.
     doc: str | None = None

@@ -19,7 +19,7 @@ from robocog.shared.results import TaskVerdict, WorldState
 from robocog.shared.suite import DEFAULT_SUITE
 
 if TYPE_CHECKING:
-    from robocog.server.session import RobotSession
+    from robocog.server.robots.session import RobotSession
 
 logger = logging.getLogger("robocog.server.session")
 

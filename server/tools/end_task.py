@@ -20,7 +20,7 @@ from robocog.shared.limits import DESCRIPTION_CHARS, SUMMARY_CHARS
 from robocog.shared.results import EndTaskResult, Status
 
 if TYPE_CHECKING:
-    from robocog.server.session import RobotSession
+    from robocog.server.robots.session import RobotSession
 
 logger = logging.getLogger("robocog.server.session")
 

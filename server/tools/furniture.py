@@ -22,7 +22,7 @@ from robocog.shared.limits import NAME_CHARS
 from robocog.shared.results import FurnitureError, OpenCloseResult
 
 if TYPE_CHECKING:
-    from robocog.server.session import RobotSession
+    from robocog.server.robots.session import RobotSession
     from robocog.server.world.world import World
 
 FurnitureArg = Annotated[

@@ -13,7 +13,7 @@ from robocog.shared.limits import NAME_CHARS
 from robocog.shared.results import GrabResult
 
 if TYPE_CHECKING:
-    from robocog.server.session import RobotSession
+    from robocog.server.robots.session import RobotSession
 
 ObjectArg = Annotated[
     str,

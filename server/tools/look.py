@@ -18,7 +18,7 @@ from robocog.shared.limits import NAME_CHARS
 from robocog.shared.results import LookResult
 
 if TYPE_CHECKING:
-    from robocog.server.session import RobotSession
+    from robocog.server.robots.session import RobotSession
 
 DirectionArg = Annotated[
     str,

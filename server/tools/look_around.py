@@ -8,7 +8,7 @@ from robocog.server.tools.base import READ_ONLY, Tool
 from robocog.shared.results import FurnitureView, LocationView, LookAroundResult, PositionView
 
 if TYPE_CHECKING:
-    from robocog.server.session import RobotSession
+    from robocog.server.robots.session import RobotSession
 
 
 def look_around(robot: RobotSession) -> LookAroundResult:

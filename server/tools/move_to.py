@@ -10,7 +10,7 @@ from robocog.server.world.navigation import resolve
 from robocog.shared.results import MoveResult
 
 if TYPE_CHECKING:
-    from robocog.server.session import RobotSession
+    from robocog.server.robots.session import RobotSession
 
 
 def move_to(robot: RobotSession, location: LocationArg) -> MoveResult:

@@ -13,7 +13,7 @@ from robocog.shared.limits import NAME_CHARS
 from robocog.shared.results import ErrorCode, PlaceResult
 
 if TYPE_CHECKING:
-    from robocog.server.session import RobotSession
+    from robocog.server.robots.session import RobotSession
 
 PositionArg = Annotated[
     str,

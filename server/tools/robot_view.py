@@ -20,7 +20,7 @@ from robocog.server.world.tasks import evaluate
 from robocog.shared.results import RobotView
 
 if TYPE_CHECKING:
-    from robocog.server.session import RobotSession
+    from robocog.server.robots.session import RobotSession
 
 SceneArg = Annotated[bool, Field(description="Include the map's geometry (the app asks once)")]
 CameraArg = Annotated[bool, Field(description="Attach a picture from the robot's camera, looking ahead")]

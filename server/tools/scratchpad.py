@@ -11,7 +11,7 @@ from robocog.server.tools.base import ACTION, READ_ONLY, Tool, at_most
 from robocog.shared.results import ScratchpadResult, ScratchpadView
 
 if TYPE_CHECKING:
-    from robocog.server.session import RobotSession
+    from robocog.server.robots.session import RobotSession
 
 TextArg = Annotated[
     str,

@@ -18,7 +18,7 @@ from robocog.shared.memory import MemoryRecord
 from robocog.shared.results import Experience, MemorySearchResult
 
 if TYPE_CHECKING:
-    from robocog.server.session import RobotSession
+    from robocog.server.robots.session import RobotSession
 
 QueryArg = Annotated[
     str,

@@ -35,7 +35,7 @@ from robocog.server.world.geometry import map_geometry
 from robocog.shared.web import LOOPBACK_HOSTS, VIEWER_STATIC
 
 if TYPE_CHECKING:
-    from robocog.server.session import RobotSession
+    from robocog.server.robots.session import RobotSession
     from robocog.server.state import AppState
 
 logger = logging.getLogger("robocog.server.viewer")

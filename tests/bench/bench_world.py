@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from robocog.server.config import SessionConfig
-from robocog.server.session import RobotSession
+from robocog.server.robots.session import RobotSession
 from robocog.server.tools import ROBOT_TOOLS, furniture, move_to
 from robocog.server.tools.base import Tool
 from robocog.server.world.world import World

@@ -52,7 +52,7 @@ def _client() -> BulletClient:
 def _builder(part: str) -> tuple[Callable[[Any], Any], bool]:
     """How to build one copy of `part` (into the client given, when the second item is True)."""
     from robocog.server.config import SessionConfig
-    from robocog.server.session import RobotSession
+    from robocog.server.robots.session import RobotSession
     from robocog.server.tools import look_around
     from robocog.server.world import arm_meshes, arm_visuals, builder, camera, urdf
     from robocog.server.world.world import DEFAULT_SCENE, World

@@ -19,8 +19,8 @@ from mcp_types import ElicitRequestParams, ElicitResult
 
 from robocog.server.app import build_server
 from robocog.server.config import AccessConfig, SessionConfig
-from robocog.server.consent import NO_ELICITATION
-from robocog.server.ownership import ANONYMOUS, Driver, RobotBusy, RobotLease
+from robocog.server.robots.consent import NO_ELICITATION
+from robocog.server.robots.ownership import ANONYMOUS, Driver, RobotBusy, RobotLease
 from robocog.shared.errors import ConfigError
 from robocog.shared.protocol import DRIVER_META_KEY
 from tests.helpers import free_port, server_command
@@ -105,7 +105,7 @@ def test_every_request_needs_the_bearer_token(guarded: str) -> None:
 def test_the_bearer_scheme_is_read_in_any_case_by_the_server_and_the_router(guarded: str) -> None:
     from starlette.requests import Request
 
-    from robocog.server.router import Router
+    from robocog.server.routing.router import Router
 
     for scheme in ("bearer", "BEARER", "Bearer"):  # RFC 7235: the scheme is case-insensitive
         response = _post(guarded, token=None, authorization=f"{scheme} {TOKEN}")

@@ -1,7 +1,7 @@
 """Any MCP client drives the robot: the official SDK's default client (`mcp.Client(url)`, sessionless
 MCP 2026-07-28) with no robocog code on its side, over real HTTP to a real server process.
 
-The rules (server/ownership.py, docs/security.md): on one robot, a client without a handle is the
+The rules (server/robots/ownership.py, docs/security.md): on one robot, a client without a handle is the
 anonymous driver and does T1 as it is; a handle (`robot_id`, minted by the call that takes the robot
 or by reset_world) holds the robot from the first call that presents it, and then a call without
 one may read but not act. On a fleet, each handle has its own robot; a call that acts without one is

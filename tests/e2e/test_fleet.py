@@ -21,8 +21,8 @@ from mcp import Client
 from robocog.agent.analysis.results_file import read_rows
 from robocog.agent.harness.study import run_eval
 from robocog.server.config import SessionConfig
-from robocog.server.fleet import Fleet, FleetFull
-from robocog.server.ownership import Driver
+from robocog.server.robots.fleet import Fleet, FleetFull
+from robocog.server.robots.ownership import Driver
 from robocog.shared.evaluation import AttemptRow, EvalConfig
 from robocog.shared.protocol import DRIVER_META_KEY as DRIVER
 from tests.helpers import call_ok, free_port, http_server, http_session, raw_answer, raw_initialize
@@ -319,8 +319,8 @@ async def test_the_lean_client_drives_a_json_fleet_as_the_sdk_s_does_and_frees_i
 
 
 def test_the_router_splits_robots_and_arguments_and_keeps_a_sessionless_driver_in_place() -> None:
-    from robocog.server.router import Router, Upstream
-    from robocog.server.router_processes import passed_on, shares
+    from robocog.server.routing.router import Router, Upstream
+    from robocog.server.routing.router_processes import passed_on, shares
 
     assert shares(5, 2) == [3, 2] and shares(4, 4) == [1, 1, 1, 1]
     argv = ["--transport", "http", "--port=9", "--robots", "8", "--processes", "2", "--profile", "eval", "--seed", "3"]
@@ -338,7 +338,7 @@ def test_the_router_splits_robots_and_arguments_and_keeps_a_sessionless_driver_i
 def test_the_router_checks_the_token_and_the_size_before_it_reads_on() -> None:
     from starlette.testclient import TestClient
 
-    from robocog.server.router import MAX_BODY, Router, Upstream
+    from robocog.server.routing.router import MAX_BODY, Router, Upstream
 
     router = Router([Upstream(0, free_port(), 1)], token="t" * 32)
     with TestClient(router.app()) as client:

@@ -55,7 +55,7 @@ ctypes.util.find_library = lambda name: "libc.so.6" if name == "c" else None
     # fcntl, as on Windows (robocog's stdio tells it by the platform; the MCP SDK, imported first, too)
     "fcntl": """
 import sys, types
-import robocog.server.stdio as stdio
+import robocog.server.transport.stdio as stdio
 stdio.sys = types.SimpleNamespace(**{**vars(sys), "platform": "win32"})
 sys.modules["fcntl"] = None
 """,

@@ -18,7 +18,7 @@ import pytest
 import yaml
 
 from robocog.server.config import SessionConfig
-from robocog.server.session import RobotSession
+from robocog.server.robots.session import RobotSession
 from robocog.server.tools import grab
 from robocog.server.world.world import DEFAULT_SCENE, World
 from robocog.shared.errors import ConfigError

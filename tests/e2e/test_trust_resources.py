@@ -46,8 +46,8 @@ async def measure(tmp_path: Path) -> None:
     import anyio
 
     from robocog.server.config import SessionConfig
-    from robocog.server.fleet import Fleet
-    from robocog.server.ownership import Driver
+    from robocog.server.robots.fleet import Fleet
+    from robocog.server.robots.ownership import Driver
 
     fleet = Fleet(SessionConfig(data_dir=tmp_path / "memory"), capacity=2, open_namespaces=OPEN)
     try:
@@ -156,7 +156,7 @@ async def test_a_memory_used_again_and_again_is_closed_and_opened_again_intact(t
     import anyio
 
     from robocog.server.config import SessionConfig
-    from robocog.server.fleet import RECYCLE_USES, Fleet
+    from robocog.server.robots.fleet import RECYCLE_USES, Fleet
 
     fleet = Fleet(SessionConfig(data_dir=tmp_path / "memory"))  # one robot for all, as a desktop server
     try:

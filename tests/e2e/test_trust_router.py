@@ -92,7 +92,7 @@ def test_a_stopped_process_gets_no_new_sessions_and_its_requests_time_out(tmp_pa
 def test_hostile_bodies_get_clear_answers_and_the_cap_holds_for_big_ones() -> None:
     from starlette.testclient import TestClient
 
-    from robocog.server.router import Router, Upstream
+    from robocog.server.routing.router import Router, Upstream
 
     router = Router([Upstream(0, free_port(), 1)])
     router.upstreams[0].active.add("busy")  # its one robot is taken

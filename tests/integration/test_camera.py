@@ -23,7 +23,7 @@ from robocog.agent.client.settings import AgentSettings
 from robocog.agent.client.trace_sinks import Trace
 from robocog.server.app import build_server
 from robocog.server.config import SessionConfig
-from robocog.server.session import RobotSession
+from robocog.server.robots.session import RobotSession
 from robocog.server.tools import look
 from robocog.server.world import camera
 from robocog.server.world.world import World

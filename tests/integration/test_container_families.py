@@ -17,7 +17,7 @@ import pytest
 
 from robocog.agent.client.connection import Robot
 from robocog.agent.suitegen.generator import generate
-from robocog.server import session
+from robocog.server.robots import session
 from robocog.shared.suite import Instance, load_suite
 from tests.bench.bench_suite import run_instance
 from tests.helpers import in_process_robot

@@ -17,7 +17,7 @@ from robocog.server.config import SessionConfig
 from robocog.server.memory.embedding import embed
 from robocog.server.memory.episodic import EpisodicMemory
 from robocog.server.memory.scratchpad import Scratchpad
-from robocog.server.session import RobotSession
+from robocog.server.robots.session import RobotSession
 from robocog.server.tools import CONTROL_TOOLS, ROBOT_TOOLS, scratchpad, search_memory
 from robocog.server.tools.base import Caller, Tool
 from robocog.shared.limits import (

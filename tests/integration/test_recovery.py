@@ -3,7 +3,7 @@ suite, the scripted planner (the suite's oracle) run on one of each variant thro
 on an in-process server, and the recovery scores read from its trace.
 
 The server looks instances up in the shipped suites only, so the test points its lookup at the
-generated ones (`robocog.server.session.find_instance`)."""
+generated ones (`robocog.server.robots.session.find_instance`)."""
 
 from __future__ import annotations
 
@@ -48,7 +48,7 @@ def instances(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Instance]:
 @pytest.fixture(scope="module")
 async def robot(tmp_path_factory: pytest.TempPathFactory, instances: dict[str, Instance]) -> AsyncIterator[Robot]:
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr("robocog.server.session.find_instance", lambda suite, instance_id: instances[instance_id])
+        patch.setattr("robocog.server.robots.session.find_instance", lambda suite, instance_id: instances[instance_id])
         async with in_process_robot(tmp_path_factory.mktemp("memory")) as robot:
             yield robot
 

@@ -13,7 +13,7 @@ from mcp import Client
 from robocog.agent.symbolic import SceneNames, optimal_plan
 from robocog.server.app import build_server
 from robocog.server.config import SessionConfig
-from robocog.server.session import RobotSession
+from robocog.server.robots.session import RobotSession
 from robocog.server.tools import controls, end_task, grab, move_to, place
 from robocog.server.world.tasks import HAND, REPORT, evaluate
 from robocog.server.world.world import World

@@ -7,7 +7,7 @@ from collections.abc import Iterator
 
 import pytest
 
-from robocog.server.session import RobotSession
+from robocog.server.robots.session import RobotSession
 from robocog.server.world.world import World
 from tests.unit.world_helpers import session_for
 

@@ -96,6 +96,11 @@ def test_no_two_modules_import_each_other() -> None:
     assert pairs == []
 
 
+def test_the_servers_root_holds_at_most_twelve_modules_the_rest_grouped_by_job() -> None:
+    root = sorted(p.stem for p in (ROOT / "server").glob("*.py") if p.stem != "__init__")
+    assert len(root) <= 12, root
+
+
 def test_no_source_or_test_file_is_longer_than_400_lines() -> None:
     files = [*source_files(), *sorted((ROOT / TESTS).rglob("*.py"))]
     long = {

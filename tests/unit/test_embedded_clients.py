@@ -144,7 +144,7 @@ def units(tmp_path: Path, warm_up: int = 24, count: int = 120) -> None:
 
     limit_malloc_arenas()  # first, as robocog-server does
     from robocog.server.config import SessionConfig
-    from robocog.server.session import RobotSession
+    from robocog.server.robots.session import RobotSession
     from tests.helpers import rss_mb
 
     session = RobotSession(SessionConfig(data_dir=tmp_path / "memory"))

@@ -12,7 +12,7 @@ import yaml
 
 from robocog.assets import ASSETS_DIR
 from robocog.server.config import SessionConfig
-from robocog.server.session import RobotSession
+from robocog.server.robots.session import RobotSession
 from robocog.server.tools import grab, look_around, move_to
 from robocog.server.world.world import DEFAULT_SCENE, World
 from robocog.shared.errors import ConfigError

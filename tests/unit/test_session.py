@@ -12,7 +12,7 @@ from robocog.agent.harness.units import episode_id
 from robocog.server.config import SessionConfig
 from robocog.server.memory.episodic import record_id
 from robocog.server.memory.scratchpad import MAX_CHARS, MAX_ENTRIES, MAX_ENTRY_CHARS
-from robocog.server.session import RobotSession
+from robocog.server.robots.session import RobotSession
 from robocog.server.tools import APP_TOOLS, CONTROL_TOOLS, ROBOT_TOOLS, controls, end_task, scratchpad, search_memory
 from robocog.server.tools.base import Tool
 from robocog.shared.limits import EPISODE_ID_CHARS

@@ -8,7 +8,7 @@ import anyio
 import pytest
 from starlette.types import Message, Receive, Scope, Send
 
-from robocog.server.http import GONE_GRACE_S, VanishedClients
+from robocog.server.transport.http import GONE_GRACE_S, VanishedClients
 
 pytestmark = pytest.mark.anyio
 

@@ -13,7 +13,7 @@ from collections.abc import Iterator
 import pybullet
 import pytest
 
-from robocog.server.session import RobotSession
+from robocog.server.robots.session import RobotSession
 from robocog.server.world.world import World
 from robocog.shared.results import LookAroundResult, OpenCloseResult
 from tests.unit.world_helpers import TOOLS, perform

@@ -12,7 +12,7 @@ import math
 
 import pytest
 
-from robocog.server.session import RobotSession
+from robocog.server.robots.session import RobotSession
 from robocog.server.tools import grab, move_to, place
 from robocog.server.world.actions import Reach
 from robocog.server.world.world import World

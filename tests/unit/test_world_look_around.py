@@ -7,7 +7,7 @@ that the `world` fixture (tests/unit/conftest.py) resets before each test.
 
 from __future__ import annotations
 
-from robocog.server.session import RobotSession
+from robocog.server.robots.session import RobotSession
 from robocog.server.tools import grab, look_around
 from robocog.server.world.describe import describe
 from robocog.server.world.world import World

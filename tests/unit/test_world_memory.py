@@ -1,6 +1,6 @@
 """What keeps a fleet's robots small stays in place, and changes nothing a world computes or shows.
 
-A fleet holds a PyBullet client per robot (`server/fleet.py`); two things a world loaded cost memory
+A fleet holds a PyBullet client per robot (`server/robots/fleet.py`); two things a world loaded cost memory
 in every one of them and are now built lean (docs/figures.md, Scale):
 
 - the floor is drawn as TinyRenderer's quad for a plane with its checkerboard as 16 x 16 texels, not as

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import pytest
 
-from robocog.server.session import RobotSession
+from robocog.server.robots.session import RobotSession
 from robocog.server.tools import grab, move_to, place
 from robocog.server.world.navigation import closest, strip_articles
 from robocog.server.world.world import World

@@ -12,7 +12,7 @@ import math
 
 import pytest
 
-from robocog.server.session import RobotSession
+from robocog.server.robots.session import RobotSession
 from robocog.server.tools import move_to
 from robocog.server.tools.base import Caller
 from robocog.server.world.world import DEFAULT_SCENE, World

@@ -14,7 +14,7 @@ from collections.abc import Iterator
 
 import pytest
 
-from robocog.server.session import RobotSession
+from robocog.server.robots.session import RobotSession
 from robocog.server.world.world import World
 from robocog.shared.errors import WorldError
 from robocog.shared.perturbations import Perturbation

@@ -14,7 +14,7 @@ from collections import Counter
 
 import pytest
 
-from robocog.server.session import RobotSession
+from robocog.server.robots.session import RobotSession
 from robocog.server.world.tasks import evaluate, task_catalogue
 from robocog.server.world.world import World
 from robocog.shared.results import ObjectPlacement

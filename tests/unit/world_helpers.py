@@ -7,7 +7,7 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from robocog.server.config import SessionConfig
-from robocog.server.session import RobotSession
+from robocog.server.robots.session import RobotSession
 from robocog.server.tools import ROBOT_TOOLS
 from robocog.server.tools.base import Tool
 from robocog.server.world.world import World

@@ -33,7 +33,7 @@ SETTINGS = {
     "--view": ("viewer_port", "--view"),
     "--confirm": ("confirm_actions", "--confirm-actions"),
 }
-#: What robocog-server reads as the title of the "confirm" setting (robocog.server.consent).
+#: What robocog-server reads as the title of the "confirm" setting (robocog.server.robots.consent).
 CONFIRM_SETTING_ENV = "ROBOCOG_CONFIRM_SETTING"
 
 

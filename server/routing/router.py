@@ -33,8 +33,8 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from robocog.server.config import DEFAULT_SESSION_IDLE_S, UNCONFIRMED_IDLE_S
-from robocog.server.handles import DriverIds
-from robocog.server.router_wire import driver_name, error_response, is_stopped, mints_handle, parse_message, say
+from robocog.server.robots.handles import DriverIds
+from robocog.server.routing.router_wire import driver_name, error_response, is_stopped, mints_handle, parse_message, say
 from robocog.shared.web import CLIENT_KEEP_ALIVE_S
 
 if TYPE_CHECKING:
@@ -141,7 +141,7 @@ class Router:
         if driver is not None and self.ids is not None and not self.ids.valid(driver):
             driver = None  # forged: the least loaded process refuses it, and nothing is counted
         if driver is not None:
-            origin = driver.split(".", 1)[0]  # a minted handle names its process (server/ownership.py)
+            origin = driver.split(".", 1)[0]  # a minted handle names its process (server/robots/ownership.py)
             if origin.isdigit() and int(origin) < len(self.upstreams):
                 upstream = self.upstreams[int(origin)]
                 if driver not in upstream.handles and upstream.minting:

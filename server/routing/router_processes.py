@@ -14,8 +14,8 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from robocog.server.config import DRIVER_SECRET_ENV, event_loop_options
-from robocog.server.handles import DriverIds
-from robocog.server.router import Router, Upstream
+from robocog.server.robots.handles import DriverIds
+from robocog.server.routing.router import Router, Upstream
 from robocog.shared.errors import ConfigError
 from robocog.shared.process import PARENT_ENV, die_with_parent, free_port, wait_listening
 from robocog.shared.web import SERVER_KEEP_ALIVE_S

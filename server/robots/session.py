@@ -35,7 +35,7 @@ R = TypeVar("R", bound=BaseModel)
 
 class MemoryProvider(Protocol):
     """Opens the episodic memory of a namespace, and deletes one (a server's robots share one per
-    namespace: `server/fleet.py`, `Memories`)."""
+    namespace: `server/robots/fleet.py`, `Memories`)."""
 
     def __call__(self, namespace: str) -> EpisodicMemory: ...
 

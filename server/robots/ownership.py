@@ -52,7 +52,7 @@ from mcp_types.version import MODERN_PROTOCOL_VERSIONS
 from robocog.server import compat
 from robocog.server.clients import connection_of
 from robocog.server.config import DEFAULT_SESSION_IDLE_S, UNCONFIRMED_IDLE_S
-from robocog.server.handles import DriverIds, fingerprint
+from robocog.server.robots.handles import DriverIds, fingerprint
 from robocog.shared.protocol import DRIVER_META_KEY
 
 

@@ -15,7 +15,7 @@ from robocog.assets import ASSETS_DIR
 from robocog.shared.errors import WorldError
 
 if TYPE_CHECKING:
-    from robocog.server.session import RobotSession
+    from robocog.server.robots.session import RobotSession
     from robocog.server.state import AppState
 
 

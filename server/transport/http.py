@@ -39,7 +39,7 @@ if TYPE_CHECKING:
     from mcp.server.transport_security import TransportSecuritySettings
     from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-    from robocog.server.ownership import Presence
+    from robocog.server.robots.ownership import Presence
 
 #: The shortest token accepted: a guessable token is no protection.
 MIN_TOKEN_LENGTH = 16

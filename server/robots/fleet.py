@@ -32,12 +32,12 @@ import anyio.to_thread
 from mcp.server.mcpserver.exceptions import ToolError
 
 from robocog.server.config import DEFAULT_SESSION_IDLE_S, UNCONFIRMED_IDLE_S, SessionConfig
-from robocog.server.ownership import Driver, Presence, RobotLease
+from robocog.server.robots.ownership import Driver, Presence, RobotLease
 from robocog.shared.protocol import FLEET_FULL
 
 if TYPE_CHECKING:
     from robocog.server.memory.episodic import EpisodicMemory
-    from robocog.server.session import RobotSession
+    from robocog.server.robots.session import RobotSession
 
 T = TypeVar("T")
 logger = logging.getLogger("robocog.server.fleet")
@@ -224,7 +224,7 @@ class Fleet:
 
     def build(self) -> Robot:
         """Build one more robot (on a worker thread: it takes about 0.2 s) and keep it free."""
-        from robocog.server.session import RobotSession
+        from robocog.server.robots.session import RobotSession
 
         session = RobotSession(self.config, memories=self.memories)
         lease = RobotLease(idle_s=self.idle_s, clock=self._clock)

@@ -22,7 +22,7 @@ from mcp.server.mcpserver.exceptions import ToolError
 from mcp.server.mcpserver.resolve import Elicit, Resolve
 from pydantic import BaseModel, Field
 
-from robocog.server.ownership import Driver
+from robocog.server.robots.ownership import Driver
 from robocog.server.tools.base import Tool
 
 ALLOW_ONCE = "allow once"

@@ -28,9 +28,9 @@ from robocog.server.clients import (
     collecting,
     connection_of,
 )
-from robocog.server.consent import ConsentGate
-from robocog.server.fleet import FleetFull
-from robocog.server.ownership import Driver, RobotBusy
+from robocog.server.robots.consent import ConsentGate
+from robocog.server.robots.fleet import FleetFull
+from robocog.server.robots.ownership import Driver, RobotBusy
 from robocog.server.state import AppState
 from robocog.server.tools.base import Caller, ProgressFn, Tool
 from robocog.shared.perturbations import PERTURBATION_META_KEY
