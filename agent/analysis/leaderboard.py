@@ -44,9 +44,12 @@ class Study:
 
 
 def results_study(path: Path) -> Study:
-    """A results file written by `robocog eval`, its traces looked for beside it."""
+    """A results file written by `robocog eval` (a regular file within its bound), its traces looked for
+    beside it."""
     from robocog.agent.analysis.results_file import load_rows
+    from robocog.agent.analysis.untrusted import RESULTS_BYTES, read_bounded
 
+    read_bounded(path, RESULTS_BYTES, "results file", content=False)
     rows = load_rows(path)
     if not rows:
         raise ValueError(f"{path}: the results file holds no attempts")
@@ -54,12 +57,13 @@ def results_study(path: Path) -> Study:
     return Study(path.name, tuple(rows), tuple(present(r) for r in rows))
 
 
-def load_study(path: Path) -> Study:
-    """A results file (`.jsonl`) or a submission (`.json`, validated first)."""
+def load_study(path: Path, local: Sequence[Path] = ()) -> Study:
+    """A results file (`.jsonl`) or a submission (`.json`, validated first; its suite shipped or one of
+    the suite directories `local`)."""
     if path.suffix == ".json":
         from robocog.agent.analysis.submission import read_submission
 
-        return read_submission(path).study(path.name)
+        return read_submission(path, local).study(path.name)
     return results_study(path)
 
 

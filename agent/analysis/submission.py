@@ -15,7 +15,6 @@ which `validate` reports too.
 from __future__ import annotations
 
 import hashlib
-import json
 import re
 from collections import defaultdict
 from collections.abc import Sequence
@@ -27,6 +26,15 @@ from pydantic import ValidationError
 
 from robocog.agent.analysis.leaderboard import Study, board, entry_json
 from robocog.agent.analysis.provenance import trace_on_disk
+from robocog.agent.analysis.untrusted import (
+    RESULTS_BYTES,
+    TRACE_BYTES,
+    Refused,
+    read_bounded,
+    read_json,
+    split_directory,
+    suite_directory,
+)
 from robocog.shared import __version__
 from robocog.shared.evaluation import AttemptRow
 from robocog.shared.provenance import sha256_of
@@ -35,23 +43,25 @@ FORMAT = "robocog-submission/1"
 _DIGEST = re.compile(r"^[0-9a-f]{64}$")
 
 
-def _suite_and_split(rows: Sequence[AttemptRow]) -> tuple[str | None, str | None]:
-    """The suite the rows' instances are of, and the one split that holds them all."""
-    from robocog.shared.suite import DEFAULT_SUITE, SUITES_DIR, load_split
+def _suite_and_split(rows: Sequence[AttemptRow], local: Sequence[Path] = ()) -> tuple[str | None, str | None]:
+    """The suite the rows' instances are of, and the one split that holds them all (a shipped suite, or
+    a suite directory of `local`: `robocog.agent.analysis.untrusted.suite_directory`)."""
+    from robocog.shared.suite import DEFAULT_SUITE, load_split
 
     instances = {r.instance for r in rows if r.instance}
     if not instances:
         return None, None
     named = {r.provenance.suite for r in rows if r.provenance and r.provenance.suite}
     suite = next(iter(named)) if len(named) == 1 else DEFAULT_SUITE
-    for path in sorted((SUITES_DIR / suite).glob("*.jsonl")):
-        if instances <= {i.id for i in load_split(suite, path.stem)}:
+    directory = suite_directory(suite, local)
+    for path in sorted(directory.glob("*.jsonl")):
+        if instances <= {i.id for i in load_split(str(directory), path.stem)}:
             return suite, path.stem
     raise ValueError(f"the rows' instances are not all of one split of the suite {suite}")
 
 
 def _file_sha256(path: Path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()
+    return hashlib.sha256(read_bounded(path, TRACE_BYTES, "trace")).hexdigest()
 
 
 def _groups(rows: Sequence[AttemptRow], tasks: Sequence[str]) -> dict[tuple[str, str, int], int]:
@@ -63,17 +73,19 @@ def _groups(rows: Sequence[AttemptRow], tasks: Sequence[str]) -> dict[tuple[str,
     return counts
 
 
-def prepare(results: Path) -> dict[str, Any]:
-    """The submission of the study in `results` (its traces looked for beside it)."""
+def prepare(results: Path, local: Sequence[Path] = ()) -> dict[str, Any]:
+    """The submission of the study in `results` (its traces looked for beside it; its suite shipped, or
+    one of the suite directories `local`)."""
     from robocog.agent.analysis.results_file import load_rows
 
+    read_bounded(results, RESULTS_BYTES, "results file", content=False)
     rows = load_rows(results)
     if not rows:
         raise ValueError(f"{results}: the results file holds no attempts")
     base = results.resolve().parent
     present = trace_on_disk(base)
     traces = [_file_sha256(base / str(r.trace)) if present(r) else None for r in rows]
-    suite, split = _suite_and_split(rows)
+    suite, split = _suite_and_split(rows, local)
     tasks = [] if suite else list(dict.fromkeys(r.task for r in rows))
     counted = _groups(rows, tasks[:1])
     models: dict[str, dict[str, Any]] = {}
@@ -116,16 +128,19 @@ class Submission:
         return Study(name, self.rows, tuple(t is not None for t in self.data["traces"]))
 
 
-def _coverage(data: dict[str, Any], rows: Sequence[AttemptRow]) -> list[str]:
+def _coverage(data: dict[str, Any], rows: Sequence[AttemptRow], local: Sequence[Path]) -> list[str]:
     from robocog.shared.suite import load_split
 
     problems = []
     models = sorted({r.model for r in rows})
     if data.get("suite"):
         try:
-            wanted = [i.id for i in load_split(str(data["suite"]), str(data["split"]))]
+            directory = split_directory(data["suite"], data["split"], local)
+            wanted = [i.id for i in load_split(str(directory), data["split"])]
+        except Refused as exc:
+            return [str(exc)]
         except (OSError, ValueError) as exc:
-            return [f"suite {data['suite']} / split {data['split']}: {exc}"]
+            return [f"suite {data['suite']} / split {data['split']}: {' '.join(str(exc).split())}"]
         where = f"{data['suite']}/{data['split']}"
     else:
         wanted = list(data.get("tasks") or [])[:1]
@@ -147,15 +162,58 @@ def _coverage(data: dict[str, Any], rows: Sequence[AttemptRow]) -> list[str]:
     return problems
 
 
-def validate(data: Any) -> tuple[list[str], tuple[AttemptRow, ...]]:
-    """The problems of a submission (none: valid) and its rows (when they read)."""
+#: A submission's fields and the JSON types each may hold (beside `format`, checked first).
+_FIELDS: dict[str, tuple[type, ...]] = {
+    "study": (str,),
+    "suite": (str, type(None)),
+    "split": (str, type(None)),
+    "tasks": (list,),
+    "models": (list,),
+    "trials_per_instance": (int,),
+    "summary": (list,),
+    "rows_sha256": (str,),
+    "traces": (list,),
+    "rows": (list,),
+}
+_NAMES = {list: "a list", dict: "an object", str: "a string", int: "an integer", type(None): "null"}
+
+
+def _shape(data: dict[str, Any]) -> str | None:
+    """The first field of a submission whose JSON type is wrong (None: every field's is right)."""
+    for key, kinds in _FIELDS.items():
+        value = data.get(key)
+        if key in data and (not isinstance(value, kinds) or isinstance(value, bool)):
+            return f"{key} must be {' or '.join(_NAMES[k] for k in kinds)}, not {_json_type(value)}"
+    for number, task in enumerate(data.get("tasks") or [], 1):
+        if not isinstance(task, str):
+            return f"tasks: item {number} must be a string, not {_json_type(task)}"
+    for number, model in enumerate(data.get("models") or [], 1):
+        if not isinstance(model, dict) or not isinstance(model.get("model"), str):
+            return f"models: item {number} must be an object whose model is a string"
+    return None
+
+
+def _json_type(value: object) -> str:
+    if isinstance(value, bool):
+        return "a boolean"
+    if isinstance(value, float):
+        return "a number"
+    return next((n for t, n in _NAMES.items() if isinstance(value, t)), type(value).__name__)
+
+
+def validate(data: Any, local: Sequence[Path] = ()) -> tuple[list[str], tuple[AttemptRow, ...]]:
+    """The problems of a submission (none: valid) and its rows (when they read). Its suite is a shipped
+    one or one of the suite directories `local` (given on the verifier's command line)."""
     if not isinstance(data, dict):
         return ["a submission is a JSON object"], ()
     if data.get("format") != FORMAT:
-        return [f"format {data.get('format')!r} is not {FORMAT!r}"], ()
+        return [f"format {str(data.get('format'))[:40]!r} is not {FORMAT!r}"], ()
     missing = [k for k in ("rows", "traces", "rows_sha256", "models", "trials_per_instance") if k not in data]
     if missing:
         return [f"missing {', '.join(missing)}"], ()
+    wrong = _shape(data)
+    if wrong:
+        return [wrong], ()
     raw, traces = data["rows"], data["traces"]
     if not isinstance(raw, list) or not raw:
         return ["it holds no rows"], ()
@@ -172,20 +230,18 @@ def validate(data: Any) -> tuple[list[str], tuple[AttemptRow, ...]]:
     bad = [i for i, t in enumerate(traces, 1) if t is not None and not (isinstance(t, str) and _DIGEST.match(t))]
     if bad:
         return [f"the trace digest of row {bad[0]} is not a sha256"], tuple(rows)
-    declared = {m.get("model") for m in data["models"] if isinstance(m, dict)}
+    declared = {m["model"] for m in data["models"]}
     found = {r.model for r in rows}
     if declared != found:
         return [f"models lists {sorted(map(str, declared))} but the rows are of {sorted(found)}"], tuple(rows)
-    return _coverage(data, rows), tuple(rows)
+    return _coverage(data, rows, local), tuple(rows)
 
 
-def read_submission(path: Path) -> Submission:
-    """A submission file that validates; a ValueError says its first problem."""
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{path}: not JSON ({exc.msg}, line {exc.lineno})") from exc
-    problems, rows = validate(data)
+def read_submission(path: Path, local: Sequence[Path] = ()) -> Submission:
+    """A submission file that validates (read within `robocog.agent.analysis.untrusted`'s bounds); a
+    ValueError says its first problem in one line."""
+    data = read_json(path)
+    problems, rows = validate(data, local)
     if problems:
         raise ValueError(f"{path}: not a valid submission: {problems[0]}")
     return Submission(data, rows)

@@ -21,6 +21,15 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     prep.add_argument("--out", type=Path, required=True, help="the submission file to write, e.g. submission.json")
     val = actions.add_parser("validate", help="check a submission: its digests, its coverage, its trials")
     val.add_argument("submission", type=Path, help="a file written by robocog submit prepare")
+    for parser in (prep, val):
+        parser.add_argument(
+            "--suite-dir",
+            type=Path,
+            action="append",
+            default=[],
+            help="a suite directory (suite.yaml and its splits) the rows may name besides the shipped suites; "
+            "repeatable",
+        )
     return sm
 
 
@@ -38,29 +47,31 @@ def main(args: argparse.Namespace) -> int:
 
     if args.action == "prepare":
         try:
-            data = prepare(args.results)
-        except (OSError, ValueError, ValidationError) as exc:
+            data = prepare(args.results, args.suite_dir)
+        except (OSError, ValueError, ValidationError, RecursionError) as exc:
             return _fail(args.results, exc)
         args.out.parent.mkdir(parents=True, exist_ok=True)
         args.out.write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
-        problems, _ = validate(data)
+        problems, _ = validate(data, args.suite_dir)
         print(f"submission: {args.out} ({len(data['rows'])} rows, {len(data['models'])} models)")
         for line in problems:
             print(f"robocog: warning: {args.out}: {line}", file=sys.stderr)
         return 0
-    return validate_command(args.submission)
+    return validate_command(args.submission, args.suite_dir)
 
 
-def validate_command(path: Path) -> int:
-    """`robocog submit validate FILE`: exit 0 and a verdict when valid, 2 and the problems when not."""
+def validate_command(path: Path, local: list[Path]) -> int:
+    """`robocog submit validate FILE`: exit 0 and a verdict when valid, 2 and the problems when not (a
+    file the bounds refuse: one line)."""
     from robocog.agent.analysis.provenance import verify
     from robocog.agent.analysis.submission import validate
+    from robocog.agent.analysis.untrusted import read_json
 
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
+        data = read_json(path)
     except (OSError, ValueError) as exc:
-        return _fail(path, exc if isinstance(exc, OSError) else ValueError(f"not JSON: {exc}"))
-    problems, rows = validate(data)
+        return _fail(path, exc)
+    problems, rows = validate(data, local)
     if problems:
         print(f"robocog: {path}: not a valid submission: {problems[0]}", file=sys.stderr)
         for line in problems[1:]:

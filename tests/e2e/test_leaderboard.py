@@ -229,7 +229,7 @@ def test_bad_input_gets_one_line_and_exit_2(
         (["leaderboard", str(studies["paper"]), str(studies["paper"]), "--out", out], "hold the same attempts"),
         (["submit", "prepare", str(tmp_path / "missing.jsonl"), "--out", out], "no such results file"),
         (["submit", "validate", str(garbage)], "not JSON"),
-        (["submit", "validate", str(tmp_path / "missing.json")], "No such file"),
+        (["submit", "validate", str(tmp_path / "missing.json")], "missing.json: no such submission"),
     ]
     for argv, message in cases:
         assert main(argv) == 2, argv
