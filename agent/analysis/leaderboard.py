@@ -162,9 +162,36 @@ def _score(row: FamilyRow) -> dict[str, Any]:
     return {"success": round(row.success, 4), "ci": _interval(row.success_ci), "attempts": row.attempts}
 
 
-def entry_json(e: Entry) -> dict[str, Any]:
+def _ci_text(ci: tuple[float, float] | None) -> str:
+    """An interval as it is shown ("[58.1%, 72.3%]"; "" for none), each bound rounded once, from the
+    unrounded value."""
+    if ci is None or any(math.isnan(v) for v in ci):
+        return ""
+    return f"[{pct(ci[0])}, {pct(ci[1])}]"
+
+
+def shown(e: Entry, b: Board) -> dict[str, Any]:
+    """Every number of an entry as the page and leaderboard.md both show it: each rounded once, from
+    the counts' own ratio (never from a value already rounded for the JSON), so the two agree digit
+    for digit."""
     o = e.overall
     return {
+        "success": pct(o.success),
+        "success_ci": _ci_text(o.success_ci),
+        "false_success": pct(o.false_success_rate),
+        "false_success_ci": _ci_text(o.false_success_ci) if o.false_success_rate is not None else "",
+        "pass_k": {str(k): pct(o.pass_k.get(k)) for k in b.ks},
+        "pass_k_ci": {str(k): _ci_text(o.pass_k_ci.get(k)) for k in b.ks},
+        "families": {f: pct(e.families[f].success) if f in e.families else "–" for f in b.families},
+        "capabilities": {c: pct(e.capabilities[c].success) if c in e.capabilities else "–" for c in b.capabilities},
+        "tokens_per_attempt": "n/a" if e.tokens_per_attempt is None else f"{e.tokens_per_attempt:.0f}",
+        "cost_per_attempt": "n/a" if e.cost_per_attempt is None else f"${e.cost_per_attempt:.4f}",
+    }
+
+
+def entry_json(e: Entry, b: Board | None = None) -> dict[str, Any]:
+    o = e.overall
+    out = {
         "model": e.model,
         "protocol": e.protocol,
         "model_ids": list(e.model_ids),
@@ -185,6 +212,9 @@ def entry_json(e: Entry) -> dict[str, Any]:
         "cost_per_attempt": e.cost_per_attempt,
         "cost_known": e.cost_known,
     }
+    if b is not None:
+        out["shown"] = shown(e, b)
+    return out
 
 
 def board_json(b: Board) -> dict[str, Any]:
@@ -196,32 +226,27 @@ def board_json(b: Board) -> dict[str, Any]:
         "capabilities": list(b.capabilities),
         "ks": list(b.ks),
         "warnings": list(b.warnings),
-        "entries": [entry_json(e) for e in b.entries],
+        "entries": [entry_json(e, b) for e in b.entries],
     }
 
 
-def _with_ci(value: float | None, ci: tuple[float, float] | None) -> str:
-    if value is None or math.isnan(value):
-        return "n/a"
-    bounds = _interval(ci)
-    return pct(value) if bounds is None else f"{pct(value)} [{pct(bounds[0])}, {pct(bounds[1])}]"
+def _with_ci(value: str, ci: str) -> str:
+    return f"{value} {ci}" if ci else value
 
 
 def board_markdown(b: Board) -> str:
-    """The leaderboard as a markdown table (leaderboard.md)."""
+    """The leaderboard as a markdown table (leaderboard.md), its numbers those of the page (`shown`)."""
     header = ["#", "model", "protocol", "verified", "attempts", "success [95% CI]", "false success"]
     header += [f"pass^{k}" for k in b.ks] + list(b.families) + [f"cap. {c}" for c in b.capabilities]
     header += ["tokens / attempt", "cost / attempt"]
     lines = []
     for i, e in enumerate(b.entries, 1):
-        o = e.overall
-        line = [str(i), cell(e.model), e.protocol, "yes" if e.verification.verified else "no", str(o.attempts)]
-        line += [_with_ci(o.success, o.success_ci), _with_ci(o.false_success_rate, o.false_success_ci)]
-        line += [_with_ci(o.pass_k.get(k), o.pass_k_ci.get(k)) for k in b.ks]
-        line += [pct(e.families[f].success) if f in e.families else "–" for f in b.families]
-        line += [pct(e.capabilities[c].success) if c in e.capabilities else "–" for c in b.capabilities]
-        line += ["n/a" if e.tokens_per_attempt is None else f"{e.tokens_per_attempt:.0f}"]
-        line += ["n/a" if e.cost_per_attempt is None else f"${e.cost_per_attempt:.4f}"]
+        t = shown(e, b)
+        line = [str(i), cell(e.model), e.protocol, "yes" if e.verification.verified else "no", str(e.overall.attempts)]
+        line += [_with_ci(t["success"], t["success_ci"]), _with_ci(t["false_success"], t["false_success_ci"])]
+        line += [_with_ci(t["pass_k"][str(k)], t["pass_k_ci"][str(k)]) for k in b.ks]
+        line += [t["families"][f] for f in b.families] + [t["capabilities"][c] for c in b.capabilities]
+        line += [t["tokens_per_attempt"], t["cost_per_attempt"]]
         lines.append(line)
     parts = ["# robocog leaderboard", "", f"Studies: {', '.join(s.name for s in b.studies)}.", ""]
     parts += [md_table(header, lines), ""]

@@ -235,3 +235,62 @@ def test_bad_input_gets_one_line_and_exit_2(
         assert main(argv) == 2, argv
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and err.startswith("robocog: ") and message in err, (argv, err)
+
+
+def _counted_study(path: Path, successes: int, attempts: int) -> Path:
+    """A results file of one model's `attempts` attempts at T1 (two trials per memory iteration),
+    `successes` of them true (86/132 = 65.15…%: a share whose last digit a second rounding changes)."""
+    template = read_rows(DATA / "results_paper.jsonl")[0]
+    rows = [
+        template.model_copy(
+            update={
+                "model": "counted",
+                "study": "counted",
+                "trial": i % 2,
+                "memory_iteration": i // 2,
+                "seed": i % 2,
+                "true_success": i < successes,
+            }
+        )
+        for i in range(attempts)
+    ]
+    path.write_text("".join(r.model_dump_json() + "\n" for r in rows))
+    return path
+
+
+@pytest.mark.anyio
+async def test_the_page_and_the_markdown_show_the_same_digits_and_fit_1280_px(
+    studies: dict[str, Path], tmp_path: Path
+) -> None:
+    """Every cell of every entry reads the same on the page (Chromium, 1,280 px wide) as in
+    leaderboard.md; 86/132 reads 65.2% in both; the table needs no horizontal scroll."""
+    chromium()
+    out = tmp_path / "board"
+    counted = _counted_study(tmp_path / "counted.jsonl", 86, 132)
+    given = [str(studies[k]) for k in ("paper", "suite", "old", "tagged")] + [str(counted)]
+    assert main(["leaderboard", *given, "--out", str(out)]) == 0
+    markdown = [
+        [c.strip() for c in line.strip("|").split(" | ")]
+        for line in (out / "leaderboard.md").read_text().splitlines()
+        if line.startswith("| ") and not line.startswith("| #")
+    ]
+    by_model = {cells[1]: cells for cells in markdown}
+    assert by_model["counted"][5].startswith("65.2% [")
+    async with browser_page(1280, 900) as page:
+        await page.goto((out / "index.html").resolve().as_uri())
+        await page.wait_for_function("document.body.dataset.ready === 'true'")
+        rows = await page.evaluate(
+            """() => [...document.querySelectorAll('#board tbody tr')].map((tr) => [...tr.children].map((td) =>
+                 [...td.childNodes].map((n) => n.textContent.trim()).filter((t) => t).join(' ')))"""
+        )
+        assert len(rows) == len(markdown) == 9
+        for cells in rows:
+            written = by_model[cells[1]]
+            shown = [written[0], written[1], *written[2:]]
+            verified = "yes" if cells[3] == "✓ verified" else "no"
+            assert [cells[0], cells[1], cells[2], verified, *cells[4:]] == shown, cells[1]
+        wrap = await page.evaluate(
+            "(() => { const w = document.querySelector('.wrap'); return [w.scrollWidth, w.clientWidth]; })()"
+        )
+        await page.screenshot(path=str(screenshot_path("leaderboard-1280.png")), full_page=True)
+        assert wrap[0] <= wrap[1], f"the table is {wrap[0]} px wide in a {wrap[1]} px box at 1,280 px"

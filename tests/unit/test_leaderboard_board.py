@@ -102,3 +102,18 @@ def test_the_plot_draws_entries_at_the_edges(tmp_path: Path) -> None:
     result = board([study("p", perfect), study("z", nothing)])
     assert draw_success_cost(result, tmp_path) == "success_cost.png"
     assert (tmp_path / "success_cost.png").stat().st_size > 10_000
+
+
+def test_every_number_is_rounded_once_and_the_page_shows_the_markdown_s_digits() -> None:
+    """86/132 is 65.1515…%: 65.2% in leaderboard.md and in what the page shows (`shown`), never 65.1%
+    from the JSON's 0.6515 rounded again; each interval's bounds likewise, from the unrounded bound."""
+    rows = [row("m", i % 2, i < 86, memory_iteration=i // 2, seed=i % 2) for i in range(132)]
+    b = board([study("s", rows)])
+    (entry,) = board_json(b)["entries"]
+    low, high = b.entries[0].overall.success_ci
+    assert entry["shown"]["success"] == "65.2%" and entry["success"] == 0.6515
+    assert entry["shown"]["success_ci"] == f"[{100 * low:.1f}%, {100 * high:.1f}%]"
+    line = next(line for line in board_markdown(b).splitlines() if line.startswith("| 1 |"))
+    assert f"| {entry['shown']['success']} {entry['shown']['success_ci']} |" in line
+    for k, text in entry["shown"]["pass_k"].items():
+        assert f"{text} {entry['shown']['pass_k_ci'][k]}" in line
