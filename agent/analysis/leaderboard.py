@@ -7,9 +7,11 @@ false-success rate with its interval, pass^k with its interval, success per fami
 tag (rows that carry `capabilities`; robocog-v1's rows carry none, so no capability column appears), tokens and cost per
 attempt where known (rows whose cost is unknown are left out of the cost's mean; none known: n/a).
 
-An entry is *verified* when every row of it ran on the prompts, tools and task files robocog ships
-and every trace is present (`robocog.agent.analysis.provenance.verify`); rows written before
-provenance existed are never verified, but they are scored like any other.
+An entry is *verified* when every row of it ran on the prompts, tools and task files robocog ships,
+every trace is present (`robocog.agent.analysis.provenance.verify`) and every attempt, replayed in
+the physics from its trace (`robocog submit verify`, whose record lies beside the study:
+`robocog.agent.analysis.replay_record`), gave its recorded verdict; rows written before provenance
+existed are never verified, but they are scored like any other.
 
 A study is a results file (JSONL, its traces beside it) or a submission (`robocog submit prepare`),
 read by `load_study`; `board` builds the entries, `board_json` and `board_markdown` write them, and
@@ -21,7 +23,7 @@ from __future__ import annotations
 import math
 from collections import defaultdict
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -36,11 +38,13 @@ FIGURE = "success_cost.png"
 
 @dataclass(frozen=True)
 class Study:
-    """A study's rows and, for each, whether its trace is present."""
+    """A study's rows and, for each, whether its trace is present and how its replay went
+    (`robocog.agent.analysis.replay_record.STATUSES`; None: the study was not replayed)."""
 
     name: str
     rows: tuple[AttemptRow, ...]
     traced: tuple[bool, ...]
+    replayed: tuple[str, ...] | None = None
 
 
 def results_study(path: Path) -> Study:
@@ -60,11 +64,15 @@ def results_study(path: Path) -> Study:
 def load_study(path: Path, local: Sequence[Path] = ()) -> Study:
     """A results file (`.jsonl`) or a submission (`.json`, validated first; its suite shipped or one of
     the suite directories `local`)."""
+    from robocog.agent.analysis.replay_record import statuses
+
     if path.suffix == ".json":
         from robocog.agent.analysis.submission import read_submission
 
-        return read_submission(path, local).study(path.name)
-    return results_study(path)
+        study = read_submission(path, local).study(path.name)
+    else:
+        study = results_study(path)
+    return replace(study, replayed=statuses(path, len(study.rows)))  # the record beside it, if any
 
 
 @dataclass(frozen=True)
@@ -82,6 +90,9 @@ class Entry:
     cost_per_attempt: float | None
     cost_known: int
     verification: Verification
+    #: Attempts replayed in the physics (`robocog submit verify`), of those there are to replay.
+    replayed: int = 0
+    replayable: int = 0
 
     @property
     def name(self) -> str:
@@ -102,10 +113,29 @@ def _mean(values: list[float]) -> float | None:
     return sum(values) / len(values) if values else None
 
 
-def entry(model: str, protocol: str, pairs: list[tuple[str, AttemptRow, bool]]) -> Entry:
-    """The entry of `model` under `protocol` from its (study, row, trace present) triples."""
-    every = [r for _, r, _ in pairs]
-    traced = {id(r): t for _, r, t in pairs}
+#: A row, where it came from, whether its trace is present and how its replay went (None: not replayed).
+Pair = tuple[str, AttemptRow, bool, str | None]
+
+
+def _replay_problems(pairs: Sequence[Pair]) -> tuple[list[str], int, int]:
+    """Why rows are not verified by replay (their replay differs, or there is none), the attempts
+    replayed and those there are to replay (an errored attempt or an instance not run has none)."""
+    due = [status for _, r, _, status in pairs if r.outcome not in ("error", "not_run")]
+    differs = sum(s == "differs" for s in due)
+    missing = sum(s not in ("matches", "differs") for s in due)
+    problems = [f"replay differs ({differs} rows)"] if differs else []
+    problems += [f"not replayed ({missing} rows)"] if missing else []
+    return problems, sum(s in ("matches", "differs") for s in due), len(due)
+
+
+def entry(model: str, protocol: str, pairs: list[Pair]) -> Entry:
+    """The entry of `model` under `protocol` from its (study, row, trace present, replay) tuples:
+    verified when its rows ran on what robocog ships, their traces are present, and every attempt's
+    replay gave its verdict."""
+    every = [r for _, r, _, _ in pairs]
+    traced = {id(r): t for _, r, t, _ in pairs}
+    replay_problems, replayed, replayable = _replay_problems(pairs)
+    shipped = verify(every, lambda r: traced[id(r)])
     rows = instance_rows(every)  # an instance's earlier task is no attempt at the instance
     by_family: dict[str, list[AttemptRow]] = defaultdict(list)
     for r in rows:
@@ -114,7 +144,7 @@ def entry(model: str, protocol: str, pairs: list[tuple[str, AttemptRow, bool]]) 
     return Entry(
         model=model,
         protocol=protocol,
-        studies=tuple(dict.fromkeys(s for s, _, _ in pairs)),
+        studies=tuple(dict.fromkeys(s for s, _, _, _ in pairs)),
         model_ids=tuple(dict.fromkeys(r.model_id for r in rows if r.model_id)),
         overall=family_row(model, "all", rows),
         families={f: family_row(model, f, group) for f, group in by_family.items()},
@@ -122,7 +152,9 @@ def entry(model: str, protocol: str, pairs: list[tuple[str, AttemptRow, bool]]) 
         tokens_per_attempt=_mean([float(r.tokens_in + r.tokens_out) for r in rows]),
         cost_per_attempt=_mean(costs),
         cost_known=len(costs),
-        verification=verify(every, lambda r: traced[id(r)]),
+        verification=Verification(shipped.problems + tuple(replay_problems)),
+        replayed=replayed,
+        replayable=replayable,
     )
 
 
@@ -139,11 +171,12 @@ def board(studies: Sequence[Study]) -> Board:
             if key in seen:
                 raise ValueError(f"{seen[key]} and {s.name} hold the same attempts (study {key[0]!r}): give each once")
             seen[key] = s.name
-    grouped: dict[tuple[str, str], list[tuple[str, AttemptRow, bool]]] = defaultdict(list)
+    grouped: dict[tuple[str, str], list[Pair]] = defaultdict(list)
     warnings = []
     for s in studies:
-        for r, t in zip(s.rows, s.traced, strict=True):
-            grouped[(r.model, r.protocol)].append((s.name, r, t))
+        replays = s.replayed or (None,) * len(s.rows)
+        for r, t, replay in zip(s.rows, s.traced, replays, strict=True):
+            grouped[(r.model, r.protocol)].append((s.name, r, t, replay))
         warnings += [f"{s.name}: {line}" for line in disagreements(s.rows)]
     entries = sorted(
         (entry(m, p, pairs) for (m, p), pairs in grouped.items()), key=lambda e: (-e.overall.success, e.name)
@@ -186,6 +219,7 @@ def shown(e: Entry, b: Board) -> dict[str, Any]:
         "capabilities": {c: pct(e.capabilities[c].success) if c in e.capabilities else "–" for c in b.capabilities},
         "tokens_per_attempt": "n/a" if e.tokens_per_attempt is None else f"{e.tokens_per_attempt:.0f}",
         "cost_per_attempt": "n/a" if e.cost_per_attempt is None else f"${e.cost_per_attempt:.4f}",
+        "replayed": f"{e.replayed} of {e.replayable} replayed",
     }
 
 
@@ -211,6 +245,8 @@ def entry_json(e: Entry, b: Board | None = None) -> dict[str, Any]:
         "tokens_per_attempt": None if e.tokens_per_attempt is None else round(e.tokens_per_attempt, 1),
         "cost_per_attempt": e.cost_per_attempt,
         "cost_known": e.cost_known,
+        "replayed": e.replayed,
+        "replayable": e.replayable,
     }
     if b is not None:
         out["shown"] = shown(e, b)
@@ -242,7 +278,8 @@ def board_markdown(b: Board) -> str:
     lines = []
     for i, e in enumerate(b.entries, 1):
         t = shown(e, b)
-        line = [str(i), cell(e.model), e.protocol, "yes" if e.verification.verified else "no", str(e.overall.attempts)]
+        mark = f"{'yes' if e.verification.verified else 'no'} ({t['replayed']})"
+        line = [str(i), cell(e.model), e.protocol, mark, str(e.overall.attempts)]
         line += [_with_ci(t["success"], t["success_ci"]), _with_ci(t["false_success"], t["false_success_ci"])]
         line += [_with_ci(t["pass_k"][str(k)], t["pass_k_ci"][str(k)]) for k in b.ks]
         line += [t["families"][f] for f in b.families] + [t["capabilities"][c] for c in b.capabilities]

@@ -1,15 +1,17 @@
 """A submission: a study packed into one JSON file for a leaderboard elsewhere (`robocog submit`).
 
 `prepare` writes what a leaderboard needs: every row (with its provenance), the sha256 of each row's
-trace file (None where it was missing), a digest of the rows, the suite and split the rows cover (or
-the tasks of a study of the paper's tasks), the models with their protocol, model string and
+trace file and its text (`trace_texts`, what `robocog submit verify` replays; None where it was
+missing), a digest of the rows, the suite and split the rows cover (or the tasks of a study of the
+paper's tasks), the models with their protocol, model string and
 sampling parameters, the trials per instance, and a summary per model (success, pass^k, cost).
 `validate` checks that file: its format, that the rows and trace digests read and the rows' digest
 matches them (a file edited after `prepare` does not), that every model covers every instance of
 the split (for the paper's tasks, the first task: a later one runs only after it succeeded), and
 that every instance has the declared number of trials per model and memory iteration. Whether the
-rows ran on what robocog ships is not a validity question: it is the leaderboard's *verified* mark,
-which `validate` reports too.
+rows ran on what robocog ships is not a validity question: it is part of the leaderboard's *verified*
+mark, which `validate` reports too (the rest of the mark is the replay: `robocog submit verify`).
+Every file is read within the bounds of `robocog.agent.analysis.untrusted`.
 """
 
 from __future__ import annotations
@@ -60,8 +62,28 @@ def _suite_and_split(rows: Sequence[AttemptRow], local: Sequence[Path] = ()) -> 
     raise ValueError(f"the rows' instances are not all of one split of the suite {suite}")
 
 
-def _file_sha256(path: Path) -> str:
-    return hashlib.sha256(read_bounded(path, TRACE_BYTES, "trace")).hexdigest()
+def _trace(path: Path) -> tuple[str, str | None]:
+    """A trace file's sha256 and its text (None when it is not UTF-8: its digest alone is carried)."""
+    data = read_bounded(path, TRACE_BYTES, "trace")
+    try:
+        text: str | None = data.decode("utf-8")
+    except UnicodeDecodeError:
+        text = None
+    return hashlib.sha256(data).hexdigest(), text
+
+
+def _trace_problem(texts: object, digests: list[Any]) -> str | None:
+    """What is wrong with a submission's `trace_texts` (None: each is null or the text of its digest)."""
+    if not isinstance(texts, list) or len(texts) != len(digests):
+        return f"trace_texts must list one trace text (or null) per row: {len(digests)} rows"
+    for number, (text, digest) in enumerate(zip(texts, digests, strict=True), 1):
+        if text is None:
+            continue
+        if not isinstance(text, str) or len(text) > TRACE_BYTES:
+            return f"the trace text of row {number} is not a text of at most {TRACE_BYTES:,} characters"
+        if hashlib.sha256(text.encode("utf-8", "surrogatepass")).hexdigest() != digest:
+            return f"the trace text of row {number} does not match its digest"
+    return None
 
 
 def _groups(rows: Sequence[AttemptRow], tasks: Sequence[str]) -> dict[tuple[str, str, int], int]:
@@ -84,7 +106,8 @@ def prepare(results: Path, local: Sequence[Path] = ()) -> dict[str, Any]:
         raise ValueError(f"{results}: the results file holds no attempts")
     base = results.resolve().parent
     present = trace_on_disk(base)
-    traces = [_file_sha256(base / str(r.trace)) if present(r) else None for r in rows]
+    read = [_trace(base / str(r.trace)) if present(r) else (None, None) for r in rows]
+    traces = [digest for digest, _ in read]
     suite, split = _suite_and_split(rows, local)
     tasks = [] if suite else list(dict.fromkeys(r.task for r in rows))
     counted = _groups(rows, tasks[:1])
@@ -114,6 +137,7 @@ def prepare(results: Path, local: Sequence[Path] = ()) -> dict[str, Any]:
         "rows_sha256": sha256_of(dumped),
         "traces": traces,
         "rows": dumped,
+        "trace_texts": [text for _, text in read],
     }
 
 
@@ -174,6 +198,7 @@ _FIELDS: dict[str, tuple[type, ...]] = {
     "rows_sha256": (str,),
     "traces": (list,),
     "rows": (list,),
+    "trace_texts": (list,),
 }
 _NAMES = {list: "a list", dict: "an object", str: "a string", int: "an integer", type(None): "null"}
 
@@ -230,6 +255,10 @@ def validate(data: Any, local: Sequence[Path] = ()) -> tuple[list[str], tuple[At
     bad = [i for i, t in enumerate(traces, 1) if t is not None and not (isinstance(t, str) and _DIGEST.match(t))]
     if bad:
         return [f"the trace digest of row {bad[0]} is not a sha256"], tuple(rows)
+    if "trace_texts" in data:  # what `robocog submit verify` replays (submissions before it carry none)
+        wrong = _trace_problem(data["trace_texts"], traces)
+        if wrong:
+            return [wrong], tuple(rows)
     declared = {m["model"] for m in data["models"]}
     found = {r.model for r in rows}
     if declared != found:

@@ -1,6 +1,7 @@
 """`robocog submit prepare RESULTS --out submission.json` and `robocog submit validate FILE`: a study
 packed for a leaderboard elsewhere, and checked (`robocog.agent.analysis.submission`). Reads results
-and submissions only: it imports neither the MCP SDK nor LiteLLM."""
+and submissions only: it imports neither the MCP SDK nor LiteLLM. `robocog submit verify` is parsed
+here and run by `robocog.agent.cli.submit_verify` (it runs a robot server)."""
 
 from __future__ import annotations
 
@@ -21,7 +22,14 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     prep.add_argument("--out", type=Path, required=True, help="the submission file to write, e.g. submission.json")
     val = actions.add_parser("validate", help="check a submission: its digests, its coverage, its trials")
     val.add_argument("submission", type=Path, help="a file written by robocog submit prepare")
-    for parser in (prep, val):
+    ver = actions.add_parser(
+        "verify", help="replay every attempt's tool calls in the physics and check its recorded verdict"
+    )
+    ver.add_argument("submission", type=Path, help="a file written by robocog submit prepare (it carries the traces)")
+    ver.add_argument("--out", type=Path, default=None, help="the replay record (default: SUBMISSION.replay.json)")
+    ver.add_argument("--server-cmd", default=None, help="the robot server's command line (default: robocog-server)")
+    ver.set_defaults(command_module="submit_verify")  # it runs a server: robocog.agent.cli.submit_verify
+    for parser in (prep, val, ver):
         parser.add_argument(
             "--suite-dir",
             type=Path,
@@ -44,14 +52,21 @@ def main(args: argparse.Namespace) -> int:
     from pydantic import ValidationError
 
     from robocog.agent.analysis.submission import prepare, validate
+    from robocog.agent.analysis.untrusted import SUBMISSION_BYTES
 
     if args.action == "prepare":
         try:
             data = prepare(args.results, args.suite_dir)
         except (OSError, ValueError, ValidationError, RecursionError) as exc:
             return _fail(args.results, exc)
+        text = json.dumps(data, indent=1) + "\n"
+        if len(text.encode("utf-8")) > SUBMISSION_BYTES:
+            size = len(text.encode("utf-8"))
+            return _fail(
+                args.results, ValueError(f"its submission would be {size:,} bytes, more than {SUBMISSION_BYTES:,}")
+            )
         args.out.parent.mkdir(parents=True, exist_ok=True)
-        args.out.write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
+        args.out.write_text(text, encoding="utf-8")
         problems, _ = validate(data, args.suite_dir)
         print(f"submission: {args.out} ({len(data['rows'])} rows, {len(data['models'])} models)")
         for line in problems:
@@ -80,6 +95,7 @@ def validate_command(path: Path, local: list[Path]) -> int:
     traced = dict(zip(map(id, rows), (t is not None for t in data["traces"]), strict=True))
     verification = verify(rows, lambda r: traced[id(r)])
     covers = f"{data['suite']}/{data['split']}" if data.get("suite") else ", ".join(data.get("tasks") or [])
-    mark = "verified" if verification.verified else "not verified: " + "; ".join(verification.problems)
+    shipped = "ran on what robocog ships (to verify it, replay it: robocog submit verify)"
+    mark = shipped if verification.verified else "not verified: " + "; ".join(verification.problems)
     print(f"{path}: valid ({len(rows)} rows, {data['trials_per_instance']} trials per instance, {covers}); {mark}")
     return 0
