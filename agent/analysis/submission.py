@@ -87,10 +87,11 @@ def _trace_problem(texts: object, digests: list[Any]) -> str | None:
 
 
 def _groups(rows: Sequence[AttemptRow], tasks: Sequence[str]) -> dict[tuple[str, str, int], int]:
-    """Attempts per (model, instance or counted task, memory iteration)."""
+    """Attempts per (model, instance or counted task, memory iteration); an instance's earlier task is
+    no attempt at the instance (it has a row of its own)."""
     counts: dict[tuple[str, str, int], int] = defaultdict(int)
     for r in rows:
-        if r.instance or r.task in tasks:
+        if (r.instance and r.earlier is None) or (not r.instance and r.task in tasks):
             counts[(r.model, r.instance or r.task, r.memory_iteration)] += 1
     return counts
 
@@ -106,7 +107,7 @@ def prepare(results: Path, local: Sequence[Path] = ()) -> dict[str, Any]:
         raise ValueError(f"{results}: the results file holds no attempts")
     base = results.resolve().parent
     present = trace_on_disk(base)
-    read = [_trace(base / str(r.trace)) if present(r) else (None, None) for r in rows]
+    read = [_trace(base / r.trace) if present(r) and r.trace else (None, None) for r in rows]  # not run: none
     traces = [digest for digest, _ in read]
     suite, split = _suite_and_split(rows, local)
     tasks = [] if suite else list(dict.fromkeys(r.task for r in rows))
@@ -123,7 +124,11 @@ def prepare(results: Path, local: Sequence[Path] = ()) -> dict[str, Any]:
             },
         )
     dumped = [r.model_dump(mode="json") for r in rows]
-    study = Study(results.name, tuple(rows), tuple(t is not None for t in traces))
+    study = Study(
+        results.name,
+        tuple(rows),
+        tuple(t is not None or r.outcome == "not_run" for r, t in zip(rows, traces, strict=True)),
+    )
     return {
         "format": FORMAT,
         "robocog_version": __version__,
@@ -149,7 +154,8 @@ class Submission:
     rows: tuple[AttemptRow, ...]
 
     def study(self, name: str) -> Study:
-        return Study(name, self.rows, tuple(t is not None for t in self.data["traces"]))
+        traced = (t is not None or r.outcome == "not_run" for r, t in zip(self.rows, self.data["traces"], strict=True))
+        return Study(name, self.rows, tuple(traced))  # an instance not run has no trace to have
 
 
 def _coverage(data: dict[str, Any], rows: Sequence[AttemptRow], local: Sequence[Path]) -> list[str]:

@@ -92,7 +92,7 @@ def validate_command(path: Path, local: list[Path]) -> int:
         for line in problems[1:]:
             print(f"robocog: {path}: also: {line}", file=sys.stderr)
         return 2
-    traced = dict(zip(map(id, rows), (t is not None for t in data["traces"]), strict=True))
+    traced = {id(r): t is not None or r.outcome == "not_run" for r, t in zip(rows, data["traces"], strict=True)}
     verification = verify(rows, lambda r: traced[id(r)])
     covers = f"{data['suite']}/{data['split']}" if data.get("suite") else ", ".join(data.get("tasks") or [])
     shipped = "ran on what robocog ships (to verify it, replay it: robocog submit verify)"
