@@ -7,13 +7,15 @@ false-success rate with its interval, pass^k with its interval, success per fami
 tag (rows that carry `capabilities`; robocog-v1's rows carry none, so no capability column appears), tokens and cost per
 attempt where known (rows whose cost is unknown are left out of the cost's mean; none known: n/a).
 
-An entry is *verified* when every row of it ran on the prompts, tools and task files robocog ships
-and every trace is present (`robocog.agent.analysis.provenance.verify`); rows written before
-provenance existed are never verified, but they are scored like any other.
+An entry is *verified* when every row of it ran on the prompts, tools and task files robocog ships,
+every trace is present (`robocog.agent.analysis.provenance.verify`) and every attempt, replayed in
+the physics from its trace (`robocog submit verify`, whose record lies beside the study:
+`robocog.agent.analysis.replay_record`), gave its recorded verdict; rows written before provenance
+existed are never verified, but they are scored like any other.
 
 A study is a results file (JSONL, its traces beside it) or a submission (`robocog submit prepare`),
-read by `submission.load_study`; `board` builds the entries, `board_json` and `board_markdown` write them, and
-`draw_success_cost` plots success against cost per attempt.
+read by `submission.load_study`; `board` builds the entries, `board_json` and `board_markdown` write
+them, and `draw_success_cost` plots success against cost per attempt.
 """
 
 from __future__ import annotations
@@ -36,17 +38,22 @@ FIGURE = "success_cost.png"
 
 @dataclass(frozen=True)
 class Study:
-    """A study's rows and, for each, whether its trace is present."""
+    """A study's rows and, for each, whether its trace is present and how its replay went
+    (`robocog.agent.analysis.replay_record.STATUSES`; None: the study was not replayed)."""
 
     name: str
     rows: tuple[AttemptRow, ...]
     traced: tuple[bool, ...]
+    replayed: tuple[str, ...] | None = None
 
 
 def results_study(path: Path) -> Study:
-    """A results file written by `robocog eval`, its traces looked for beside it."""
+    """A results file written by `robocog eval` (a regular file within its bound), its traces looked for
+    beside it."""
     from robocog.agent.analysis.results_file import load_rows
+    from robocog.agent.analysis.untrusted import RESULTS_BYTES, read_bounded
 
+    read_bounded(path, RESULTS_BYTES, "results file", content=False)
     rows = load_rows(path)
     if not rows:
         raise ValueError(f"{path}: the results file holds no attempts")
@@ -69,6 +76,9 @@ class Entry:
     cost_per_attempt: float | None
     cost_known: int
     verification: Verification
+    #: Attempts replayed in the physics (`robocog submit verify`), of those there are to replay.
+    replayed: int = 0
+    replayable: int = 0
 
     @property
     def name(self) -> str:
@@ -89,10 +99,29 @@ def _mean(values: list[float]) -> float | None:
     return sum(values) / len(values) if values else None
 
 
-def entry(model: str, protocol: str, pairs: list[tuple[str, AttemptRow, bool]]) -> Entry:
-    """The entry of `model` under `protocol` from its (study, row, trace present) triples."""
-    every = [r for _, r, _ in pairs]
-    traced = {id(r): t for _, r, t in pairs}
+#: A row, where it came from, whether its trace is present and how its replay went (None: not replayed).
+Pair = tuple[str, AttemptRow, bool, str | None]
+
+
+def _replay_problems(pairs: Sequence[Pair]) -> tuple[list[str], int, int]:
+    """Why rows are not verified by replay (their replay differs, or there is none), the attempts
+    replayed and those there are to replay (an errored attempt or an instance not run has none)."""
+    due = [status for _, r, _, status in pairs if r.outcome not in ("error", "not_run")]
+    differs = sum(s == "differs" for s in due)
+    missing = sum(s not in ("matches", "differs") for s in due)
+    problems = [f"replay differs ({differs} rows)"] if differs else []
+    problems += [f"not replayed ({missing} rows)"] if missing else []
+    return problems, sum(s in ("matches", "differs") for s in due), len(due)
+
+
+def entry(model: str, protocol: str, pairs: list[Pair]) -> Entry:
+    """The entry of `model` under `protocol` from its (study, row, trace present, replay) tuples:
+    verified when its rows ran on what robocog ships, their traces are present, and every attempt's
+    replay gave its verdict."""
+    every = [r for _, r, _, _ in pairs]
+    traced = {id(r): t for _, r, t, _ in pairs}
+    replay_problems, replayed, replayable = _replay_problems(pairs)
+    shipped = verify(every, lambda r: traced[id(r)])
     rows = instance_rows(every)  # an instance's earlier task is no attempt at the instance
     by_family: dict[str, list[AttemptRow]] = defaultdict(list)
     for r in rows:
@@ -101,7 +130,7 @@ def entry(model: str, protocol: str, pairs: list[tuple[str, AttemptRow, bool]]) 
     return Entry(
         model=model,
         protocol=protocol,
-        studies=tuple(dict.fromkeys(s for s, _, _ in pairs)),
+        studies=tuple(dict.fromkeys(s for s, _, _, _ in pairs)),
         model_ids=tuple(dict.fromkeys(r.model_id for r in rows if r.model_id)),
         overall=family_row(model, "all", rows),
         families={f: family_row(model, f, group) for f, group in by_family.items()},
@@ -109,7 +138,9 @@ def entry(model: str, protocol: str, pairs: list[tuple[str, AttemptRow, bool]]) 
         tokens_per_attempt=_mean([float(r.tokens_in + r.tokens_out) for r in rows]),
         cost_per_attempt=_mean(costs),
         cost_known=len(costs),
-        verification=verify(every, lambda r: traced[id(r)]),
+        verification=Verification(shipped.problems + tuple(replay_problems)),
+        replayed=replayed,
+        replayable=replayable,
     )
 
 
@@ -126,11 +157,12 @@ def board(studies: Sequence[Study]) -> Board:
             if key in seen:
                 raise ValueError(f"{seen[key]} and {s.name} hold the same attempts (study {key[0]!r}): give each once")
             seen[key] = s.name
-    grouped: dict[tuple[str, str], list[tuple[str, AttemptRow, bool]]] = defaultdict(list)
+    grouped: dict[tuple[str, str], list[Pair]] = defaultdict(list)
     warnings = []
     for s in studies:
-        for r, t in zip(s.rows, s.traced, strict=True):
-            grouped[(r.model, r.protocol)].append((s.name, r, t))
+        replays = s.replayed or (None,) * len(s.rows)
+        for r, t, replay in zip(s.rows, s.traced, replays, strict=True):
+            grouped[(r.model, r.protocol)].append((s.name, r, t, replay))
         warnings += [f"{s.name}: {line}" for line in disagreements(s.rows)]
     entries = sorted(
         (entry(m, p, pairs) for (m, p), pairs in grouped.items()), key=lambda e: (-e.overall.success, e.name)
@@ -149,9 +181,37 @@ def _score(row: FamilyRow) -> dict[str, Any]:
     return {"success": round(row.success, 4), "ci": _interval(row.success_ci), "attempts": row.attempts}
 
 
-def entry_json(e: Entry) -> dict[str, Any]:
+def _ci_text(ci: tuple[float, float] | None) -> str:
+    """An interval as it is shown ("[58.1%, 72.3%]"; "" for none), each bound rounded once, from the
+    unrounded value."""
+    if ci is None or any(math.isnan(v) for v in ci):
+        return ""
+    return f"[{pct(ci[0])}, {pct(ci[1])}]"
+
+
+def shown(e: Entry, b: Board) -> dict[str, Any]:
+    """Every number of an entry as the page and leaderboard.md both show it: each rounded once, from
+    the counts' own ratio (never from a value already rounded for the JSON), so the two agree digit
+    for digit."""
     o = e.overall
     return {
+        "success": pct(o.success),
+        "success_ci": _ci_text(o.success_ci),
+        "false_success": pct(o.false_success_rate),
+        "false_success_ci": _ci_text(o.false_success_ci) if o.false_success_rate is not None else "",
+        "pass_k": {str(k): pct(o.pass_k.get(k)) for k in b.ks},
+        "pass_k_ci": {str(k): _ci_text(o.pass_k_ci.get(k)) for k in b.ks},
+        "families": {f: pct(e.families[f].success) if f in e.families else "–" for f in b.families},
+        "capabilities": {c: pct(e.capabilities[c].success) if c in e.capabilities else "–" for c in b.capabilities},
+        "tokens_per_attempt": "n/a" if e.tokens_per_attempt is None else f"{e.tokens_per_attempt:.0f}",
+        "cost_per_attempt": "n/a" if e.cost_per_attempt is None else f"${e.cost_per_attempt:.4f}",
+        "replayed": f"{e.replayed} of {e.replayable} replayed",
+    }
+
+
+def entry_json(e: Entry, b: Board | None = None) -> dict[str, Any]:
+    o = e.overall
+    out = {
         "model": e.model,
         "protocol": e.protocol,
         "model_ids": list(e.model_ids),
@@ -171,7 +231,12 @@ def entry_json(e: Entry) -> dict[str, Any]:
         "tokens_per_attempt": None if e.tokens_per_attempt is None else round(e.tokens_per_attempt, 1),
         "cost_per_attempt": e.cost_per_attempt,
         "cost_known": e.cost_known,
+        "replayed": e.replayed,
+        "replayable": e.replayable,
     }
+    if b is not None:
+        out["shown"] = shown(e, b)
+    return out
 
 
 def board_json(b: Board) -> dict[str, Any]:
@@ -183,32 +248,28 @@ def board_json(b: Board) -> dict[str, Any]:
         "capabilities": list(b.capabilities),
         "ks": list(b.ks),
         "warnings": list(b.warnings),
-        "entries": [entry_json(e) for e in b.entries],
+        "entries": [entry_json(e, b) for e in b.entries],
     }
 
 
-def _with_ci(value: float | None, ci: tuple[float, float] | None) -> str:
-    if value is None or math.isnan(value):
-        return "n/a"
-    bounds = _interval(ci)
-    return pct(value) if bounds is None else f"{pct(value)} [{pct(bounds[0])}, {pct(bounds[1])}]"
+def _with_ci(value: str, ci: str) -> str:
+    return f"{value} {ci}" if ci else value
 
 
 def board_markdown(b: Board) -> str:
-    """The leaderboard as a markdown table (leaderboard.md)."""
+    """The leaderboard as a markdown table (leaderboard.md), its numbers those of the page (`shown`)."""
     header = ["#", "model", "protocol", "verified", "attempts", "success [95% CI]", "false success"]
     header += [f"pass^{k}" for k in b.ks] + list(b.families) + [f"cap. {c}" for c in b.capabilities]
     header += ["tokens / attempt", "cost / attempt"]
     lines = []
     for i, e in enumerate(b.entries, 1):
-        o = e.overall
-        line = [str(i), cell(e.model), e.protocol, "yes" if e.verification.verified else "no", str(o.attempts)]
-        line += [_with_ci(o.success, o.success_ci), _with_ci(o.false_success_rate, o.false_success_ci)]
-        line += [_with_ci(o.pass_k.get(k), o.pass_k_ci.get(k)) for k in b.ks]
-        line += [pct(e.families[f].success) if f in e.families else "–" for f in b.families]
-        line += [pct(e.capabilities[c].success) if c in e.capabilities else "–" for c in b.capabilities]
-        line += ["n/a" if e.tokens_per_attempt is None else f"{e.tokens_per_attempt:.0f}"]
-        line += ["n/a" if e.cost_per_attempt is None else f"${e.cost_per_attempt:.4f}"]
+        t = shown(e, b)
+        mark = f"{'yes' if e.verification.verified else 'no'} ({t['replayed']})"
+        line = [str(i), cell(e.model), e.protocol, mark, str(e.overall.attempts)]
+        line += [_with_ci(t["success"], t["success_ci"]), _with_ci(t["false_success"], t["false_success_ci"])]
+        line += [_with_ci(t["pass_k"][str(k)], t["pass_k_ci"][str(k)]) for k in b.ks]
+        line += [t["families"][f] for f in b.families] + [t["capabilities"][c] for c in b.capabilities]
+        line += [t["tokens_per_attempt"], t["cost_per_attempt"]]
         lines.append(line)
     parts = ["# robocog leaderboard", "", f"Studies: {', '.join(s.name for s in b.studies)}.", ""]
     parts += [md_table(header, lines), ""]

@@ -1,25 +1,26 @@
 """A submission: a study packed into one JSON file for a leaderboard elsewhere (`robocog submit`).
 
 `prepare` writes what a leaderboard needs: every row (with its provenance), the sha256 of each row's
-trace file (None where it was missing), a digest of the rows, the suite and split the rows cover (or
-the tasks of a study of the paper's tasks), the models with their protocol, model string and
+trace file and its text (`trace_texts`, what `robocog submit verify` replays; None where it was
+missing), a digest of the rows, the suite and split the rows cover (or the tasks of a study of the
+paper's tasks), the models with their protocol, model string and
 sampling parameters, the trials per instance, and a summary per model (success, pass^k, cost).
 `validate` checks that file: its format, that the rows and trace digests read and the rows' digest
 matches them (a file edited after `prepare` does not), that every model covers every instance of
 the split (for the paper's tasks, the first task: a later one runs only after it succeeded), and
 that every instance has the declared number of trials per model and memory iteration. Whether the
-rows ran on what robocog ships is not a validity question: it is the leaderboard's *verified* mark,
-which `validate` reports too.
+rows ran on what robocog ships is not a validity question: it is part of the leaderboard's *verified*
+mark, which `validate` reports too (the rest of the mark is the replay: `robocog submit verify`).
+Every file is read within the bounds of `robocog.agent.analysis.untrusted`.
 """
 
 from __future__ import annotations
 
 import hashlib
-import json
 import re
 from collections import defaultdict
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -27,6 +28,16 @@ from pydantic import ValidationError
 
 from robocog.agent.analysis.leaderboard import Study, board, entry_json, results_study
 from robocog.agent.analysis.provenance import trace_on_disk
+from robocog.agent.analysis.replay_record import statuses
+from robocog.agent.analysis.untrusted import (
+    RESULTS_BYTES,
+    TRACE_BYTES,
+    Refused,
+    read_bounded,
+    read_json,
+    split_directory,
+    suite_directory,
+)
 from robocog.shared import __version__
 from robocog.shared.evaluation import AttemptRow
 from robocog.shared.provenance import sha256_of
@@ -35,45 +46,71 @@ FORMAT = "robocog-submission/1"
 _DIGEST = re.compile(r"^[0-9a-f]{64}$")
 
 
-def _suite_and_split(rows: Sequence[AttemptRow]) -> tuple[str | None, str | None]:
-    """The suite the rows' instances are of, and the one split that holds them all."""
-    from robocog.shared.suite import DEFAULT_SUITE, SUITES_DIR, load_split
+def _suite_and_split(rows: Sequence[AttemptRow], local: Sequence[Path] = ()) -> tuple[str | None, str | None]:
+    """The suite the rows' instances are of, and the one split that holds them all (a shipped suite, or
+    a suite directory of `local`: `robocog.agent.analysis.untrusted.suite_directory`)."""
+    from robocog.shared.suite import DEFAULT_SUITE, load_split
 
     instances = {r.instance for r in rows if r.instance}
     if not instances:
         return None, None
     named = {r.provenance.suite for r in rows if r.provenance and r.provenance.suite}
     suite = next(iter(named)) if len(named) == 1 else DEFAULT_SUITE
-    for path in sorted((SUITES_DIR / suite).glob("*.jsonl")):
-        if instances <= {i.id for i in load_split(suite, path.stem)}:
+    directory = suite_directory(suite, local)
+    for path in sorted(directory.glob("*.jsonl")):
+        if instances <= {i.id for i in load_split(str(directory), path.stem)}:
             return suite, path.stem
     raise ValueError(f"the rows' instances are not all of one split of the suite {suite}")
 
 
-def _file_sha256(path: Path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()
+def _trace(path: Path) -> tuple[str, str | None]:
+    """A trace file's sha256 and its text (None when it is not UTF-8: its digest alone is carried)."""
+    data = read_bounded(path, TRACE_BYTES, "trace")
+    try:
+        text: str | None = data.decode("utf-8")
+    except UnicodeDecodeError:
+        text = None
+    return hashlib.sha256(data).hexdigest(), text
+
+
+def _trace_problem(texts: object, digests: list[Any]) -> str | None:
+    """What is wrong with a submission's `trace_texts` (None: each is null or the text of its digest)."""
+    if not isinstance(texts, list) or len(texts) != len(digests):
+        return f"trace_texts must list one trace text (or null) per row: {len(digests)} rows"
+    for number, (text, digest) in enumerate(zip(texts, digests, strict=True), 1):
+        if text is None:
+            continue
+        if not isinstance(text, str) or len(text) > TRACE_BYTES:
+            return f"the trace text of row {number} is not a text of at most {TRACE_BYTES:,} characters"
+        if hashlib.sha256(text.encode("utf-8", "surrogatepass")).hexdigest() != digest:
+            return f"the trace text of row {number} does not match its digest"
+    return None
 
 
 def _groups(rows: Sequence[AttemptRow], tasks: Sequence[str]) -> dict[tuple[str, str, int], int]:
-    """Attempts per (model, instance or counted task, memory iteration)."""
+    """Attempts per (model, instance or counted task, memory iteration); an instance's earlier task is
+    no attempt at the instance (it has a row of its own)."""
     counts: dict[tuple[str, str, int], int] = defaultdict(int)
     for r in rows:
-        if r.instance or r.task in tasks:
+        if (r.instance and r.earlier is None) or (not r.instance and r.task in tasks):
             counts[(r.model, r.instance or r.task, r.memory_iteration)] += 1
     return counts
 
 
-def prepare(results: Path) -> dict[str, Any]:
-    """The submission of the study in `results` (its traces looked for beside it)."""
+def prepare(results: Path, local: Sequence[Path] = ()) -> dict[str, Any]:
+    """The submission of the study in `results` (its traces looked for beside it; its suite shipped, or
+    one of the suite directories `local`)."""
     from robocog.agent.analysis.results_file import load_rows
 
+    read_bounded(results, RESULTS_BYTES, "results file", content=False)
     rows = load_rows(results)
     if not rows:
         raise ValueError(f"{results}: the results file holds no attempts")
     base = results.resolve().parent
     present = trace_on_disk(base)
-    traces = [_file_sha256(base / str(r.trace)) if present(r) else None for r in rows]
-    suite, split = _suite_and_split(rows)
+    read = [_trace(base / r.trace) if present(r) and r.trace else (None, None) for r in rows]  # not run: none
+    traces = [digest for digest, _ in read]
+    suite, split = _suite_and_split(rows, local)
     tasks = [] if suite else list(dict.fromkeys(r.task for r in rows))
     counted = _groups(rows, tasks[:1])
     models: dict[str, dict[str, Any]] = {}
@@ -88,7 +125,11 @@ def prepare(results: Path) -> dict[str, Any]:
             },
         )
     dumped = [r.model_dump(mode="json") for r in rows]
-    study = Study(results.name, tuple(rows), tuple(t is not None for t in traces))
+    study = Study(
+        results.name,
+        tuple(rows),
+        tuple(t is not None or r.outcome == "not_run" for r, t in zip(rows, traces, strict=True)),
+    )
     return {
         "format": FORMAT,
         "robocog_version": __version__,
@@ -102,6 +143,7 @@ def prepare(results: Path) -> dict[str, Any]:
         "rows_sha256": sha256_of(dumped),
         "traces": traces,
         "rows": dumped,
+        "trace_texts": [text for _, text in read],
     }
 
 
@@ -113,19 +155,23 @@ class Submission:
     rows: tuple[AttemptRow, ...]
 
     def study(self, name: str) -> Study:
-        return Study(name, self.rows, tuple(t is not None for t in self.data["traces"]))
+        traced = (t is not None or r.outcome == "not_run" for r, t in zip(self.rows, self.data["traces"], strict=True))
+        return Study(name, self.rows, tuple(traced))  # an instance not run has no trace to have
 
 
-def _coverage(data: dict[str, Any], rows: Sequence[AttemptRow]) -> list[str]:
+def _coverage(data: dict[str, Any], rows: Sequence[AttemptRow], local: Sequence[Path]) -> list[str]:
     from robocog.shared.suite import load_split
 
     problems = []
     models = sorted({r.model for r in rows})
     if data.get("suite"):
         try:
-            wanted = [i.id for i in load_split(str(data["suite"]), str(data["split"]))]
+            directory = split_directory(data["suite"], data["split"], local)
+            wanted = [i.id for i in load_split(str(directory), data["split"])]
+        except Refused as exc:
+            return [str(exc)]
         except (OSError, ValueError) as exc:
-            return [f"suite {data['suite']} / split {data['split']}: {exc}"]
+            return [f"suite {data['suite']} / split {data['split']}: {' '.join(str(exc).split())}"]
         where = f"{data['suite']}/{data['split']}"
     else:
         wanted = list(data.get("tasks") or [])[:1]
@@ -147,15 +193,59 @@ def _coverage(data: dict[str, Any], rows: Sequence[AttemptRow]) -> list[str]:
     return problems
 
 
-def validate(data: Any) -> tuple[list[str], tuple[AttemptRow, ...]]:
-    """The problems of a submission (none: valid) and its rows (when they read)."""
+#: A submission's fields and the JSON types each may hold (beside `format`, checked first).
+_FIELDS: dict[str, tuple[type, ...]] = {
+    "study": (str,),
+    "suite": (str, type(None)),
+    "split": (str, type(None)),
+    "tasks": (list,),
+    "models": (list,),
+    "trials_per_instance": (int,),
+    "summary": (list,),
+    "rows_sha256": (str,),
+    "traces": (list,),
+    "rows": (list,),
+    "trace_texts": (list,),
+}
+_NAMES = {list: "a list", dict: "an object", str: "a string", int: "an integer", type(None): "null"}
+
+
+def _shape(data: dict[str, Any]) -> str | None:
+    """The first field of a submission whose JSON type is wrong (None: every field's is right)."""
+    for key, kinds in _FIELDS.items():
+        value = data.get(key)
+        if key in data and (not isinstance(value, kinds) or isinstance(value, bool)):
+            return f"{key} must be {' or '.join(_NAMES[k] for k in kinds)}, not {_json_type(value)}"
+    for number, task in enumerate(data.get("tasks") or [], 1):
+        if not isinstance(task, str):
+            return f"tasks: item {number} must be a string, not {_json_type(task)}"
+    for number, model in enumerate(data.get("models") or [], 1):
+        if not isinstance(model, dict) or not isinstance(model.get("model"), str):
+            return f"models: item {number} must be an object whose model is a string"
+    return None
+
+
+def _json_type(value: object) -> str:
+    if isinstance(value, bool):
+        return "a boolean"
+    if isinstance(value, float):
+        return "a number"
+    return next((n for t, n in _NAMES.items() if isinstance(value, t)), type(value).__name__)
+
+
+def validate(data: Any, local: Sequence[Path] = ()) -> tuple[list[str], tuple[AttemptRow, ...]]:
+    """The problems of a submission (none: valid) and its rows (when they read). Its suite is a shipped
+    one or one of the suite directories `local` (given on the verifier's command line)."""
     if not isinstance(data, dict):
         return ["a submission is a JSON object"], ()
     if data.get("format") != FORMAT:
-        return [f"format {data.get('format')!r} is not {FORMAT!r}"], ()
+        return [f"format {str(data.get('format'))[:40]!r} is not {FORMAT!r}"], ()
     missing = [k for k in ("rows", "traces", "rows_sha256", "models", "trials_per_instance") if k not in data]
     if missing:
         return [f"missing {', '.join(missing)}"], ()
+    wrong = _shape(data)
+    if wrong:
+        return [wrong], ()
     raw, traces = data["rows"], data["traces"]
     if not isinstance(raw, list) or not raw:
         return ["it holds no rows"], ()
@@ -172,27 +262,29 @@ def validate(data: Any) -> tuple[list[str], tuple[AttemptRow, ...]]:
     bad = [i for i, t in enumerate(traces, 1) if t is not None and not (isinstance(t, str) and _DIGEST.match(t))]
     if bad:
         return [f"the trace digest of row {bad[0]} is not a sha256"], tuple(rows)
-    declared = {m.get("model") for m in data["models"] if isinstance(m, dict)}
+    if "trace_texts" in data:  # what `robocog submit verify` replays (submissions before it carry none)
+        wrong = _trace_problem(data["trace_texts"], traces)
+        if wrong:
+            return [wrong], tuple(rows)
+    declared = {m["model"] for m in data["models"]}
     found = {r.model for r in rows}
     if declared != found:
         return [f"models lists {sorted(map(str, declared))} but the rows are of {sorted(found)}"], tuple(rows)
-    return _coverage(data, rows), tuple(rows)
+    return _coverage(data, rows, local), tuple(rows)
 
 
-def read_submission(path: Path) -> Submission:
-    """A submission file that validates; a ValueError says its first problem."""
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{path}: not JSON ({exc.msg}, line {exc.lineno})") from exc
-    problems, rows = validate(data)
+def read_submission(path: Path, local: Sequence[Path] = ()) -> Submission:
+    """A submission file that validates (read within `robocog.agent.analysis.untrusted`'s bounds); a
+    ValueError says its first problem in one line."""
+    data = read_json(path)
+    problems, rows = validate(data, local)
     if problems:
         raise ValueError(f"{path}: not a valid submission: {problems[0]}")
     return Submission(data, rows)
 
 
-def load_study(path: Path) -> Study:
-    """A results file (`.jsonl`) or a submission (`.json`, validated first)."""
-    if path.suffix == ".json":
-        return read_submission(path).study(path.name)
-    return results_study(path)
+def load_study(path: Path, local: Sequence[Path] = ()) -> Study:
+    """A results file (`.jsonl`) or a submission (`.json`, validated first; its suite shipped or one of
+    the suite directories `local`), with its replay record (`robocog submit verify`) if one lies beside it."""
+    study = read_submission(path, local).study(path.name) if path.suffix == ".json" else results_study(path)
+    return replace(study, replayed=statuses(path, len(study.rows)))

@@ -18,6 +18,13 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         "results", type=Path, nargs="+", help="results files (robocog eval) or submissions (robocog submit prepare)"
     )
     lb.add_argument("--out", type=Path, required=True, help="directory for index.html, leaderboard.json/.md, the plot")
+    lb.add_argument(
+        "--suite-dir",
+        type=Path,
+        action="append",
+        default=[],
+        help="a suite directory (suite.yaml, its splits) submissions may name besides the shipped suites; repeatable",
+    )
     return lb
 
 
@@ -31,10 +38,10 @@ def main(args: argparse.Namespace) -> int:
     studies = []
     for path in args.results:
         try:
-            if not path.is_file():
+            if not path.exists():
                 raise FileNotFoundError(f"{path}: no such file")
-            studies.append(load_study(path))
-        except (OSError, ValueError, ValidationError) as exc:
+            studies.append(load_study(path, args.suite_dir))
+        except (OSError, ValueError, ValidationError, RecursionError, MemoryError) as exc:
             problem = " ".join(str(exc).split())
             print(f"robocog: {problem if problem.startswith(str(path)) else f'{path}: {problem}'}", file=sys.stderr)
             return 2

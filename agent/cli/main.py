@@ -41,6 +41,11 @@ def command_module(name: str) -> ModuleType:
     return importlib.import_module(f"robocog.agent.cli.{COMMANDS[name]}")
 
 
+def command_module_named(module: str) -> ModuleType:
+    """The module robocog.agent.cli.`module`."""
+    return importlib.import_module(f"robocog.agent.cli.{module}")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = OneLineParser(
         prog="robocog",
@@ -60,7 +65,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return int(command_module("serve").main(argparse.Namespace(server_args=given[1:])))
     args = build_parser().parse_args(given)
     try:
-        code: int = command_module(args.command).main(args)
+        # a subcommand may be run by a module of its own (`robocog submit verify`: it runs a server)
+        code: int = command_module_named(getattr(args, "command_module", None) or COMMANDS[args.command]).main(args)
         return code
     except KeyboardInterrupt:
         return 130

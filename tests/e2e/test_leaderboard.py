@@ -55,6 +55,9 @@ def studies(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
             for r in read_rows(suite)
         )
     )
+    for study in (paper, suite, tagged):  # replayed in the physics: the record beside each
+        replayed = main(["submit", "verify", str(study)])
+        assert replayed == 0
     return {"paper": paper, "suite": suite, "old": DATA / "results_paper.jsonl", "tagged": tagged}
 
 
@@ -94,7 +97,8 @@ def test_the_leaderboard_scores_with_the_report_s_code_and_marks_what_is_verifie
     assert over["false_success_rate"] is not None and over["false_success_rate"] > 0
     assert board_of(out)["capabilities"] == []  # robocog-v1 rows carry no capability tags
     assert (out / "success_cost.png").stat().st_size > 10_000
-    assert "| 1 | planner | robocog | yes |" in (out / "leaderboard.md").read_text()
+    assert "| 1 | planner | robocog | yes (12 of 12 replayed) |" in (out / "leaderboard.md").read_text()
+    assert (planner["replayed"], got["alpha (paper)"]["replayed"]) == (12, 0)
 
 
 def test_an_edited_prompt_or_a_missing_trace_is_not_verified(studies: dict[str, Path], tmp_path: Path) -> None:
@@ -106,11 +110,12 @@ def test_an_edited_prompt_or_a_missing_trace_is_not_verified(studies: dict[str, 
             r = r.model_copy(update={"provenance": r.provenance.model_copy(update={"system_prompt_sha256": "0" * 64})})
         changed.append(r.model_copy(update={"trace": None}) if r.model == "refuser" else r)
     edited.write_text("".join(r.model_dump_json() + "\n" for r in changed))
+    assert main(["submit", "verify", str(edited)]) == 1  # the refuser's attempts have no trace to replay
     out = tmp_path / "board"
     assert main(["leaderboard", str(edited), "--out", str(out)]) == 0
     got = entries(out)
     assert got["planner (robocog)"]["problems"] == ["system prompt robot_system differs from the shipped one (4 rows)"]
-    assert got["refuser (robocog)"]["problems"] == ["trace missing (2 rows)"]
+    assert got["refuser (robocog)"]["problems"] == ["trace missing (2 rows)", "not replayed (2 rows)"]
     assert got["overconfident-0.3 (robocog)"]["verified"] is True
 
 
@@ -150,7 +155,7 @@ async def test_the_page_from_disk_is_sortable_with_capability_columns_and_the_pl
         marks = dict(
             zip(models, await page.locator("#board tbody tr td:nth-child(4)").all_text_contents(), strict=True)
         )
-        assert marks["planner"] == "✓ verified" and marks["alpha"] == "unverified"
+        assert marks["planner"] == "✓ verified12 of 12 replayed" and marks["alpha"] == "unverified0 of 11 replayed"
         nav = heads.index("navigation")
         tagged = page.locator("#board tbody tr[data-model='planner-tagged'] td").nth(nav)
         assert (await tagged.text_content() or "").endswith("%")
@@ -171,7 +176,11 @@ def test_a_submission_validates_merges_and_refuses_tampering(
     assert (data["suite"], data["tasks"], data["trials_per_instance"]) == (None, ["T1", "T2"], 2)
     assert all(len(t) == 64 for t in data["traces"])
     assert main(["submit", "validate", str(sub)]) == 0
-    assert capsys.readouterr().out == f"{sub}: valid (10 rows, 2 trials per instance, T1, T2); verified\n"
+    assert capsys.readouterr().out == (
+        f"{sub}: valid (10 rows, 2 trials per instance, T1, T2); ran on what robocog ships (to verify it, replay it: "
+        "robocog submit verify)\n"
+    )
+    assert main(["submit", "verify", str(sub)]) == 0
 
     out = tmp_path / "board"  # a submission from elsewhere beside a results file from here
     assert main(["leaderboard", str(sub), str(studies["suite"]), "--out", str(out)]) == 0
@@ -199,6 +208,7 @@ def test_a_submission_validates_merges_and_refuses_tampering(
     kept = {
         "rows": data["rows"][:drop] + data["rows"][drop + 1 :],
         "traces": data["traces"][:drop] + data["traces"][drop + 1 :],
+        "trace_texts": data["trace_texts"][:drop] + data["trace_texts"][drop + 1 :],
     }
     assert bad(kept, rehash=True).endswith(
         f"{data['rows'][drop]['model']} has 1 trials of T1 at memory iteration 0, not 2"
@@ -229,9 +239,71 @@ def test_bad_input_gets_one_line_and_exit_2(
         (["leaderboard", str(studies["paper"]), str(studies["paper"]), "--out", out], "hold the same attempts"),
         (["submit", "prepare", str(tmp_path / "missing.jsonl"), "--out", out], "no such results file"),
         (["submit", "validate", str(garbage)], "not JSON"),
-        (["submit", "validate", str(tmp_path / "missing.json")], "No such file"),
+        (["submit", "validate", str(tmp_path / "missing.json")], "missing.json: no such submission"),
     ]
     for argv, message in cases:
         assert main(argv) == 2, argv
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and err.startswith("robocog: ") and message in err, (argv, err)
+
+
+def _counted_study(path: Path, successes: int, attempts: int) -> Path:
+    """A results file of one model's `attempts` attempts at T1 (two trials per memory iteration),
+    `successes` of them true (86/132 = 65.15…%: a share whose last digit a second rounding changes)."""
+    template = read_rows(DATA / "results_paper.jsonl")[0]
+    rows = [
+        template.model_copy(
+            update={
+                "model": "counted",
+                "study": "counted",
+                "trial": i % 2,
+                "memory_iteration": i // 2,
+                "seed": i % 2,
+                "true_success": i < successes,
+            }
+        )
+        for i in range(attempts)
+    ]
+    path.write_text("".join(r.model_dump_json() + "\n" for r in rows))
+    return path
+
+
+@pytest.mark.anyio
+async def test_the_page_and_the_markdown_show_the_same_digits_and_fit_1280_px(
+    studies: dict[str, Path], tmp_path: Path
+) -> None:
+    """Every cell of every entry reads the same on the page (Chromium, 1,280 px wide) as in
+    leaderboard.md; 86/132 reads 65.2% in both; the table needs no horizontal scroll."""
+    chromium()
+    out = tmp_path / "board"
+    counted = _counted_study(tmp_path / "counted.jsonl", 86, 132)
+    given = [str(studies[k]) for k in ("paper", "suite", "old", "tagged")] + [str(counted)]
+    assert main(["leaderboard", *given, "--out", str(out)]) == 0
+    markdown = [
+        [c.strip() for c in line.strip("|").split(" | ")]
+        for line in (out / "leaderboard.md").read_text().splitlines()
+        if line.startswith("| ") and not line.startswith("| #")
+    ]
+    by_model = {cells[1]: cells for cells in markdown}
+    assert by_model["counted"][5].startswith("65.2% [")
+    async with browser_page(1280, 900) as page:
+        await page.goto((out / "index.html").resolve().as_uri())
+        await page.wait_for_function("document.body.dataset.ready === 'true'")
+        rows = await page.evaluate(
+            """() => {
+                const texts = (n) => (n.nodeType === 3 ? [n.textContent.trim()] : [...n.childNodes].flatMap(texts));
+                return [...document.querySelectorAll('#board tbody tr')].map((tr) =>
+                    [...tr.children].map((td) => texts(td).filter((t) => t).join(' ')));
+            }"""
+        )
+        assert len(rows) == len(markdown) == 9
+        for cells in rows:
+            written = by_model[cells[1]]
+            shown = [written[0], written[1], *written[2:]]
+            verified = cells[3].replace("✓ verified ", "yes (").replace("unverified ", "no (") + ")"
+            assert [cells[0], cells[1], cells[2], verified, *cells[4:]] == shown, cells[1]
+        wrap = await page.evaluate(
+            "(() => { const w = document.querySelector('.wrap'); return [w.scrollWidth, w.clientWidth]; })()"
+        )
+        await page.screenshot(path=str(screenshot_path("leaderboard-1280.png")), full_page=True)
+        assert wrap[0] <= wrap[1], f"the table is {wrap[0]} px wide in a {wrap[1]} px box at 1,280 px"

@@ -1,6 +1,6 @@
 """The leaderboard's entries from synthetic rows (agent/analysis/leaderboard.py): one per model and
 protocol, pooled over studies, scored by `family_row`, capability columns only when rows carry tags,
-the verified mark from provenance and traces, a study given twice refused, and the plot drawn for
+the verified mark from provenance, traces and replay, a study given twice refused, and the plot drawn for
 entries at the edges (success 0 and 1, cost unknown)."""
 
 from __future__ import annotations
@@ -44,8 +44,9 @@ def row(model: str, trial: int, true: bool, **change: object) -> AttemptRow:
     return AttemptRow.model_validate({**fields, **change})
 
 
-def study(name: str, rows: list[AttemptRow], traced: bool = True) -> Study:
-    return Study(name, tuple(rows), tuple(traced for _ in rows))
+def study(name: str, rows: list[AttemptRow], traced: bool = True, replay: str | None = "matches") -> Study:
+    """A study whose rows were replayed (`replay`: each row's status; None: no replay record)."""
+    return Study(name, tuple(rows), tuple(traced for _ in rows), None if replay is None else (replay,) * len(rows))
 
 
 def test_entries_pool_a_model_over_studies_and_score_it_with_family_row() -> None:
@@ -76,18 +77,38 @@ def test_capability_columns_appear_only_for_tagged_rows() -> None:
     assert "| cap. memory | cap. navigation |" in text
 
 
-def test_verified_needs_shipped_provenance_and_every_trace() -> None:
+def test_verified_needs_shipped_provenance_every_trace_and_a_replay_that_matches() -> None:
     good = [row("m", t, True) for t in range(2)]
     untraced = [row("n", t, True, study="n") for t in range(2)]
     old = [row("o", t, True, study="o", provenance=None) for t in range(2)]
-    result = board([study("g", good), study("n", untraced, traced=False), study("o", old)])
+    unreplayed = [row("u", t, True, study="u") for t in range(2)]
+    forged = [row("f", t, True, study="f") for t in range(2)]
+    errored = [row("e", 0, False, study="e", outcome="error", agreement=None), row("e", 1, True, study="e")]
+    replays = {"errored": ("skipped", "matches")}
+    result = board(
+        [
+            study("g", good),
+            study("n", untraced, traced=False, replay="missing"),
+            study("o", old),
+            study("u", unreplayed, replay=None),
+            study("f", forged, replay="differs"),
+            Study("errored", tuple(errored), (True, True), replays["errored"]),
+        ]
+    )
     marks = {e.model: e.verification.problems for e in result.entries}
     assert marks == {
         "m": (),
-        "n": ("trace missing (2 rows)",),
+        "n": ("trace missing (2 rows)", "not replayed (2 rows)"),
         "o": ("no provenance (2 rows)",),
+        "u": ("not replayed (2 rows)",),
+        "f": ("replay differs (2 rows)",),
+        "e": (),  # an errored attempt has nothing to replay
     }
-    assert "- n (robocog): trace missing (2 rows)" in board_markdown(result)
+    replayed = {e.model: (e.replayed, e.replayable) for e in result.entries}
+    assert replayed == {"m": (2, 2), "n": (0, 2), "o": (2, 2), "u": (0, 2), "f": (2, 2), "e": (1, 1)}
+    text = board_markdown(result)
+    assert "- n (robocog): trace missing (2 rows); not replayed (2 rows)" in text
+    assert "| f | robocog | no (2 of 2 replayed) |" in text and "| m | robocog | yes (2 of 2 replayed) |" in text
 
 
 def test_the_same_attempts_twice_are_refused() -> None:
@@ -102,3 +123,18 @@ def test_the_plot_draws_entries_at_the_edges(tmp_path: Path) -> None:
     result = board([study("p", perfect), study("z", nothing)])
     assert draw_success_cost(result, tmp_path) == "success_cost.png"
     assert (tmp_path / "success_cost.png").stat().st_size > 10_000
+
+
+def test_every_number_is_rounded_once_and_the_page_shows_the_markdown_s_digits() -> None:
+    """86/132 is 65.1515…%: 65.2% in leaderboard.md and in what the page shows (`shown`), never 65.1%
+    from the JSON's 0.6515 rounded again; each interval's bounds likewise, from the unrounded bound."""
+    rows = [row("m", i % 2, i < 86, memory_iteration=i // 2, seed=i % 2) for i in range(132)]
+    b = board([study("s", rows)])
+    (entry,) = board_json(b)["entries"]
+    low, high = b.entries[0].overall.success_ci
+    assert entry["shown"]["success"] == "65.2%" and entry["success"] == 0.6515
+    assert entry["shown"]["success_ci"] == f"[{100 * low:.1f}%, {100 * high:.1f}%]"
+    line = next(line for line in board_markdown(b).splitlines() if line.startswith("| 1 |"))
+    assert f"| {entry['shown']['success']} {entry['shown']['success_ci']} |" in line
+    for k, text in entry["shown"]["pass_k"].items():
+        assert f"{text} {entry['shown']['pass_k_ci'][k]}" in line
