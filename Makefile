@@ -49,11 +49,19 @@ demo: $(CORE) ## The scripted planner does T1 then T2 through MCP (installs the 
 world-demo: $(CORE) ## T1 then T2 as fixed action sequences on the world itself (no MCP, no model)
 	$(PYCACHE) $(BIN)/python -m robocog.server.demo
 
+# The docs site (MkDocs + Material; the API from docstrings): mkdocs' hooks (docs/hooks/) write the tool
+# reference from the published contract and the code map from the tree; --strict fails on a broken link.
+DOCS_STAMP := $(VENV)/.installed-docs
+$(DOCS_STAMP): pyproject.toml | $(CORE)
+	$$(command -v uv || echo $(BIN)/uv) pip install --quiet --python $(BIN)/python -e ".[docs]"
+	@touch $(DOCS_STAMP)
+
 # The suite runs on TEST_WORKERS processes (pytest-xdist), each taking whole modules, so a module's
-# shared server or Ray cluster starts once; `make test TEST_WORKERS=0` runs it in one process.
+# shared server or Ray cluster starts once; `make test TEST_WORKERS=0` runs it in one process. The docs
+# extra is installed too: the docs site's own tests build it. The slowest tests are listed at the end.
 TEST_WORKERS ?= 2
-test: $(STAMP) $(TYPES) chromium inspector-cli app-deps ## Run the test suite (offline; no API key needed)
-	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) --dist loadfile
+test: $(STAMP) $(TYPES) $(DOCS_STAMP) chromium inspector-cli app-deps ## Run the test suite (offline; no API key needed)
+	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) --dist loadfile --durations=15
 
 # The viewers' browser tests drive the system's Chromium (Playwright cannot download its own here):
 # installed when missing and we are root, else how to install it is printed (those tests then skip).
@@ -132,13 +140,6 @@ conformance: $(STAMP) ## The official MCP conformance suite (pinned, via npm) ag
 
 inspector: $(STAMP) ## Open the MCP Inspector on the stdio server (needs Node.js and network for npx)
 	npx @modelcontextprotocol/inspector $(abspath $(BIN))/robocog-server
-
-# The docs site (MkDocs + Material; the API from docstrings): mkdocs' hooks (docs/hooks/) write the tool
-# reference from the published contract and the code map from the tree; --strict fails on a broken link.
-DOCS_STAMP := $(VENV)/.installed-docs
-$(DOCS_STAMP): pyproject.toml | $(CORE)
-	$$(command -v uv || echo $(BIN)/uv) pip install --quiet --python $(BIN)/python -e ".[docs]"
-	@touch $(DOCS_STAMP)
 
 docs: $(DOCS_STAMP) $(TYPES) ## Build the docs site into build/site (strict: a broken link or reference fails)
 	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet --site-dir build/site
