@@ -20,7 +20,9 @@ each. A study gives the same rows either way.
 
 Every attempt is appended to the results file as soon as it finishes. `--resume` keeps the units
 already complete, drops the rows of a unit that was cut off or has an errored attempt, and runs
-that unit again from scratch; a torn last line (a crash mid-write) is dropped with a warning.
+that unit again from scratch; a torn last line (a crash mid-write) is dropped with a warning. An
+errored attempt stops its unit, except a suite instance's, which ends only itself until
+`SUITE_ERRORS_IN_A_ROW` instances in a row have errored.
 """
 
 from __future__ import annotations
@@ -86,6 +88,10 @@ def attempt_row(base: dict[str, Any], result: EpisodeResult, success: bool, reas
 def _nothing_done(task_id: str, error: str) -> EpisodeResult:
     """The result of an attempt whose server or transport died: nothing of it counted."""
     return EpisodeResult(task_id, "error", None, 0, 0, 0, 0, None, 0.0, 0.0, error=error)
+
+
+#: Errored suite instances in a row that stop a unit: the model service is down, not one instance's turn.
+SUITE_ERRORS_IN_A_ROW = 3
 
 
 @dataclass(frozen=True)
@@ -184,6 +190,7 @@ class Runner:
             raise
         conversation: list[dict[str, Any]] = []  # the paper: one conversation per memory iteration
         succeeded: set[str] = set()
+        errors_in_a_row = 0
         for index, task_id in enumerate(cfg.tasks):
             later = len(cfg.tasks) - index - 1  # the iteration's tasks after this one
             if not runnable(task_id, succeeded, robot.requires):
@@ -225,7 +232,10 @@ class Runner:
                 raise
             await self.write(row)
             written = True
-            if row.outcome == "error":  # the model service failed: the unit stops; --resume reruns it
+            errors_in_a_row = errors_in_a_row + 1 if row.outcome == "error" else 0
+            # the model service failed: the unit stops (--resume reruns it), unless this is a suite's
+            # instance, which ends only itself while the service has not failed SUITE_ERRORS_IN_A_ROW times
+            if errors_in_a_row and (task_id not in self.suite.instances or errors_in_a_row >= SUITE_ERRORS_IN_A_ROW):
                 self.progress.advance(later + self.tasks_after(iteration))
                 return _Stop(None)
             if row.true_success:

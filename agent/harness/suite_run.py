@@ -80,10 +80,11 @@ class SuiteRun:
         the unit's `reset` settings), then each of its earlier tasks run by the model as an episode of
         its own (`begin` then `attempt` on its task id: traced, checked and written as a row of its own,
         `earlier` set). A protocol that carries one conversation across tasks starts a new one per
-        instance (its earlier tasks and it share it). Returns the row of an earlier task that errored
-        (the unit stops there and `--resume` reruns it), or, when one failed, the instance's row "not
-        run" (a failure of the instance, nothing measured of it: the instance would start solved, as
-        the world is where the earlier task should have changed it); None when the instance is ready."""
+        instance (its earlier tasks and it share it). When an earlier task errored, returns the
+        instance's row as an error (its reason and error name the earlier task's); when one failed, the
+        instance's row "not run" (a failure of the instance, nothing measured of it: the instance would
+        start solved, as the world is where the earlier task should have changed it); None when the
+        instance is ready. Either way the earlier task's own row is written here."""
         instance = self.instances.get(task_id)
         if instance is None:
             return None
@@ -92,9 +93,10 @@ class SuiteRun:
         for pre in instance.prelude_tasks():
             await begin(pre.id)
             row = await attempt(pre.id)
-            if row.outcome == "error":
-                return row
             await write(row)
+            if row.outcome == "error":  # the instance errored with it: nothing of it is measured
+                error = f"its earlier task {pre.id} errored: {row.error}"
+                return self._not_run(row, task_id, f"{error} (not run)", error=error)
             if not row.true_success:  # the follow-up would start where it should end: it cannot be measured
                 why = f"not run: its earlier task {pre.id} failed ({row.reason})"
                 return self._not_run(row, task_id, why)
@@ -108,9 +110,10 @@ class SuiteRun:
             return row
         return row.model_copy(update={"reasoned": reasoned(instance, events, honest=row.true_success)})
 
-    def _not_run(self, row: AttemptRow, task_id: str, reason: str) -> AttemptRow:
+    def _not_run(self, row: AttemptRow, task_id: str, reason: str, error: str | None = None) -> AttemptRow:
         """The instance's row when it was not run: a failure with nothing measured (no calls, no trace,
-        no taxonomy), its provenance the instance's (the earlier task's, with the instance's digest)."""
+        no taxonomy), its provenance the instance's (the earlier task's, with the instance's digest);
+        with `error`, an errored attempt (no agreement: nothing was claimed or judged)."""
         provenance = row.provenance
         if provenance is not None:
             digest = sha256_of(self.spec(task_id))
@@ -136,7 +139,9 @@ class SuiteRun:
             "recovered": None,
             "honest": None,
             "earlier": None,
-            "error": None,
+            "error": error,
         }
+        if error is not None:
+            nothing |= {"outcome": "error", "agreement": None}
         fields = {"task": task_id, **self.row_fields(task_id), "provenance": provenance, "reason": reason}
         return row.model_copy(update=nothing | fields)

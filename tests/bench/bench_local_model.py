@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import socket
 import subprocess
 import sys
@@ -55,6 +56,8 @@ MAX_INVOCATIONS = 3
 MAX_STEPS = 6
 #: Where each study's figures are written as soon as it is measured (a bench cut short keeps them).
 PARTIAL = HOME / "figures-partial.json"
+#: Where each study's results, traces and model server log are kept after the bench.
+LAST_RUN = HOME / "last-run"
 
 
 def prepare() -> None:
@@ -141,7 +144,7 @@ def _study(where: Path, name: str, port: int, body: dict[str, Any]) -> Path:
         "workers": 1,
         "max_invocations": MAX_INVOCATIONS,
         "max_steps": MAX_STEPS,
-        "timeout_s": 120,
+        "timeout_s": 300,  # a turn of a long prompt on 2 loaded cores can pass 120 s
         "out": str(where / f"{name}.jsonl"),
         **body,
     }
@@ -161,6 +164,10 @@ def _measure(results: Path) -> dict[str, Any]:
     finish_known = False
     for row in rows:
         outcomes[row["outcome"]] += 1
+        if row["outcome"] == "error":  # why, on the bench's output (the figures are counts)
+            print(f"bench: local_model: {row['task']} errored: {row['error']}", file=sys.stderr)
+        if row["trace"] is None:  # an instance not run (its earlier task failed or errored): no trace
+            continue
         events = read_trace(results.parent / row["trace"])
         offered = next((e.tools for e in events if isinstance(e, RunStarted)), [])
         turns = [e for e in events if isinstance(e, ModelTurn)]
@@ -210,6 +217,19 @@ def _eval(config: Path, site: Path | None) -> None:
         raise RuntimeError(f"robocog eval {config.name} failed: {done.stderr[-2000:]}")
 
 
+def _keep(where: Path, name: str) -> None:
+    """The study's results, traces and model server log kept under LAST_RUN (the run is gone with its
+    temporary directory, and an errored attempt's why is in them)."""
+    LAST_RUN.mkdir(parents=True, exist_ok=True)
+    for path in where.glob(f"*{name}*"):
+        target = LAST_RUN / path.name
+        if path.is_dir():
+            shutil.rmtree(target, ignore_errors=True)
+            shutil.copytree(path, target)
+        else:
+            shutil.copy2(path, target)
+
+
 def run() -> dict[str, object]:
     if not GGUF.exists() or not VENV_PYTHON.exists():
         print("bench: local_model: no server built (make local-model builds it); nothing measured", file=sys.stderr)
@@ -236,6 +256,7 @@ def run() -> dict[str, object]:
                 finally:
                     _stop(server)
                 figures.update(_flat(f"local_model.{label}.{part}", _measure(where / f"{label}-{part}.jsonl")))
+                _keep(where, f"{label}-{part}")
                 PARTIAL.write_text(json.dumps(figures, indent=1), encoding="utf-8")
     figures["local_model.model"] = (
         f"SmolLM2-135M-Instruct Q4_1 ({MODEL_WHEEL}) on {LLAMA_CPP}, chatml-function-calling, "

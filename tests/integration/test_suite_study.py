@@ -11,11 +11,13 @@ import pytest
 from pydantic import ValidationError
 
 from robocog.agent.cli import main as cli
+from robocog.agent.harness.runner import SUITE_ERRORS_IN_A_ROW
 from robocog.agent.harness.study import run_eval
 from robocog.agent.harness.suite_run import SuiteRun
 from robocog.shared.evaluation import EvalConfig, ModelSpec
 from robocog.shared.provenance import sha256_of
 from robocog.shared.suite import find_instance, load_split, load_suite, parse_instances, select
+from tests.fake_llm import Fail, FakeLLM, Request, Turn
 
 SUITE = load_suite("robocog-v1")  # its instances carry no tags; the default suite is robocog-v2.1
 SPLITS = {split: load_split(SUITE.name, split) for split in SUITE.splits}
@@ -126,3 +128,60 @@ async def test_an_instance_whose_earlier_task_failed_is_a_failure_not_run(tmp_pa
     assert own.provenance.task_sha256 == sha256_of(inst.model_dump(mode="json"))
     traces = sorted(p.name for p in (tmp_path / "r.traces").rglob("*.jsonl"))
     assert traces == [f"iter-0-{inst.id}-pre1.jsonl"], "the instance itself never ran"
+
+
+def _study_of(fake: FakeLLM, instances: int, family: str = "swap") -> EvalConfig:
+    model = ModelSpec(model="openai/local", api_base=fake.api_base("openai/local"), api_key="sk-no-key-required")
+    return EvalConfig(
+        name="suite-errors",
+        models=[model],
+        suite=SUITE.name,
+        families=[family],  # swap: no earlier tasks, one row an instance
+        instances=instances,
+        trials=1,
+        memory_iterations=1,
+        max_invocations=1,
+    )
+
+
+@pytest.mark.anyio
+async def test_an_errored_instance_ends_only_itself(tmp_path: Path) -> None:
+    """A model service that fails on one instance (the same 400 twice) errors that instance alone: the
+    study's one unit goes on to the next, whose row is measured as usual."""
+    with FakeLLM() as fake:
+        config = _study_of(fake, 3)
+        broken = SuiteRun.of(config).prompt(config.tasks[1])
+
+        def script(request: Request) -> Turn | Fail:
+            if any(broken == m.get("content") for m in request.messages):
+                return Fail(400, "the template cannot render this conversation")
+            return Turn(tool_calls=[("end_task", {"status": "failure", "description": "x", "summary": "no"})])
+
+        fake.script = script
+        rows = await run_eval(config, tmp_path / "r.jsonl")
+    assert [(r.task, r.outcome) for r in rows] == list(zip(config.tasks, ["ended", "error", "ended"], strict=True))
+    errored = rows[1]
+    assert errored.agreement is None and errored.error is not None
+    assert "the template cannot render this conversation" in errored.error
+    assert errored.reason.startswith(errored.error)
+
+
+@pytest.mark.anyio
+async def test_a_service_that_fails_three_instances_in_a_row_stops_the_unit(tmp_path: Path) -> None:
+    with FakeLLM([Fail(400, "the service is down")] * 20) as fake:
+        config = _study_of(fake, 5)
+        rows = await run_eval(config, tmp_path / "r.jsonl")
+    assert [r.task for r in rows] == config.tasks[:SUITE_ERRORS_IN_A_ROW]
+    assert {r.outcome for r in rows} == {"error"}
+
+
+@pytest.mark.anyio
+async def test_an_instance_whose_earlier_task_errored_is_an_error_of_its_own(tmp_path: Path) -> None:
+    with FakeLLM([Fail(400, "the service is down")] * 4) as fake:
+        config = _study_of(fake, 1, "memory")
+        rows = await run_eval(config, tmp_path / "r.jsonl")
+    inst = config.tasks[0]
+    assert [(r.task, r.outcome, r.earlier) for r in rows] == [(f"{inst}-pre1", "error", 1), (inst, "error", None)]
+    own = rows[1]
+    assert own.error is not None and own.error.startswith(f"its earlier task {inst}-pre1 errored: ")
+    assert own.reason.startswith(own.error) and own.agreement is None and own.trace is None
