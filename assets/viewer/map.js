@@ -134,7 +134,6 @@ window.RobocogMap = (function () {
     }
     const [sx, sy] = scene.robot.size;
     const rx = T.px(robot.xyz[0]), ry = T.py(robot.xyz[1]);
-    canvas.dataset.robot = JSON.stringify({ x: rx, y: ry, r: reach });
     ctx.save(); ctx.translate(rx, ry); ctx.rotate(-robot.yaw);
     ctx.fillStyle = "rgba(31,111,235,0.9)"; ctx.fillRect((-sx / 2) * T.s, (-sy / 2) * T.s, sx * T.s, sy * T.s);
     ctx.strokeStyle = "#fff"; ctx.lineWidth = 2 * d;
@@ -145,9 +144,13 @@ window.RobocogMap = (function () {
       ctx.fillStyle = rgb(spec.color, 1); ctx.strokeStyle = "#fff"; ctx.lineWidth = 2 * d;
       ctx.beginPath(); ctx.arc(rx, ry, 7 * d, 0, 2 * Math.PI); ctx.fill(); ctx.stroke();
     }
-    ctx.fillStyle = "#1f6feb"; ctx.font = font(12, "bold"); ctx.textAlign = "center";
-    ctx.fillText(robot.holding ? `robot holding ${robot.holding}` : "robot", rx, ry - (sy / 2) * T.s - 6 * d);
+    // Its own name above the circle it turns in (not above the square: turned, a corner passes it).
+    const name = robot.holding ? `robot holding ${robot.holding}` : "robot", baseline = ry - reach - 4 * d;
+    ctx.font = font(12, "bold"); ctx.textAlign = "center"; ctx.lineJoin = "round"; ctx.lineWidth = 3 * d;
+    ctx.strokeStyle = "rgba(255,255,255,0.85)"; ctx.strokeText(name, rx, baseline);
+    ctx.fillStyle = "#1f6feb"; ctx.fillText(name, rx, baseline);
     ctx.textAlign = "start";
+    canvas.dataset.robot = JSON.stringify({ x: rx, y: ry, r: reach, label: baseline });
     labels();
   }
 

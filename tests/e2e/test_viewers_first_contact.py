@@ -182,6 +182,7 @@ async def test_live_viewer_counts_the_agents_calls_labels_locations_and_shows_th
         robot = json.loads(await page.get_attribute("#map", "data-robot") or "{}")
         labels = json.loads(await page.get_attribute("#map", "data-labels") or "[]")
         assert {box["name"] for box in labels} >= {"Front Door", "Kitchen Shelf", "Living Room TV"}
+        assert robot["label"] < robot["y"] - robot["r"], "the robot's own name is drawn over it"
         for box in labels:  # no name starts inside the circle the robot turns in
             nearest_x = min(max(robot["x"], box["x0"]), box["x1"])
             nearest_y = min(max(robot["y"], box["y0"]), box["y1"])
