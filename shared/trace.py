@@ -58,6 +58,14 @@ class ModelTurn(_Event):
         description="tool calls the turn wrote as text in its content, not run (robocog.agent.client.slips)",
         exclude_if=lambda v: v == 0,
     )
+    retries: int = Field(
+        default=0, description="failed attempts of the turn's model call that were retried", exclude_if=lambda v: v == 0
+    )
+    retry_s: float = Field(
+        default=0.0,
+        description="seconds those attempts and the waits after them took (part of latency_s)",
+        exclude_if=lambda v: v == 0,
+    )
 
 
 class ToolCall(_Event):

@@ -28,6 +28,7 @@ from robocog.agent.client.model import (
     image_message,
     usage,
 )
+from robocog.agent.client.model_errors import Retries
 from robocog.agent.client.settings import AgentSettings
 from robocog.agent.client.slips import decode_arguments, text_tool_calls
 from robocog.agent.client.trace_sinks import Trace
@@ -163,8 +164,8 @@ async def run_episode(
                 trace.emit(Reinvoked(t=trace.now(), invocation=invocation, reason="the model stopped without end_task"))
                 messages.append({"role": "user", "content": protocol.reinvocation_message(task, description)})
             for step in range(1, settings.max_steps + 1):
-                t0 = time.monotonic()
-                response = await complete(settings, messages, definitions)
+                t0, retried = time.monotonic(), Retries()
+                response = await complete(settings, messages, definitions, retried)
                 latency = time.monotonic() - t0
                 llm_latency += latency
                 message = assistant_message(response)
@@ -187,6 +188,8 @@ async def run_episode(
                         cost=c,
                         finish_reason=finish_reason(response),
                         text_tool_calls=as_text,
+                        retries=retried.count,
+                        retry_s=round(retried.seconds, 4),
                     )
                 )
                 calls = message.get("tool_calls") or []

@@ -31,6 +31,7 @@ import asyncio
 import contextlib
 import os
 import sys
+import time
 from collections.abc import Iterable
 from functools import cache
 from typing import TYPE_CHECKING, Any
@@ -38,7 +39,7 @@ from typing import TYPE_CHECKING, Any
 from robocog.agent.client import compat
 from robocog.agent.client.litellm_tuning import robocog_call, tune
 from robocog.agent.client.local_servers import OPENAI_COMPATIBLE, bounded
-from robocog.agent.client.model_errors import classify, missing_keys
+from robocog.agent.client.model_errors import Retries, classify, missing_keys
 from robocog.agent.client.model_names import missing_key, quick_verdict
 from robocog.agent.policies.offline import OfflineModelError, is_offline, offline_turn
 from robocog.shared.errors import ModelServiceError
@@ -253,9 +254,11 @@ def _call_arguments(settings: AgentSettings) -> dict[str, Any]:
 # --- the call ------------------------------------------------------------------------------------
 
 
-async def complete(settings: AgentSettings, messages: list[dict[str, Any]], tools: list[dict[str, Any]]) -> Any:
-    """One model turn: a LiteLLM call, retried as the failure deserves; raises `ModelServiceError`.
-    An offline model answers in-process (no LiteLLM); what it refuses is never retried."""
+async def complete(
+    settings: AgentSettings, messages: list[dict[str, Any]], tools: list[dict[str, Any]], retried: Retries | None = None
+) -> Any:
+    """One model turn: a LiteLLM call, retried as the failure deserves (each retry and its time added to
+    `retried`); raises `ModelServiceError`. An offline model answers in-process; it is never retried."""
     if is_offline(settings.model):
         return await _offline(settings, messages)
     litellm = configured_litellm()
@@ -265,6 +268,7 @@ async def complete(settings: AgentSettings, messages: list[dict[str, Any]], tool
     priced = _priced(settings.model)
     previous: str | None = None  # the last failure, when a repeat of it would show it deterministic
     for attempt in range(settings.retries + 1):
+        started = time.monotonic()
         try:
             with robocog_call(litellm, priced=priced, kwargs=kwargs):
                 response = await litellm.acompletion(
@@ -285,6 +289,8 @@ async def complete(settings: AgentSettings, messages: list[dict[str, Any]], tool
                 raise ModelServiceError(failure.message + tries) from exc
             previous = failure.message if failure.final_if_repeated else None
             await asyncio.sleep(failure.wait(attempt, settings.backoff_s))
+            if retried is not None:
+                retried.add(time.monotonic() - started)
             continue
         hidden = compat.hidden_params(response)
         if hidden is not None and not priced:

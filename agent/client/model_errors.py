@@ -20,6 +20,19 @@ if TYPE_CHECKING:
     from robocog.agent.client.settings import AgentSettings
 
 
+@dataclass
+class Retries:
+    """What one turn lost before its answer: the failed attempts `complete()` retried, and the seconds
+    they and the waits after them took (the turn's latency includes them)."""
+
+    count: int = 0
+    seconds: float = 0.0
+
+    def add(self, seconds: float) -> None:
+        self.count += 1
+        self.seconds += seconds
+
+
 #: The longest a rate limit's `Retry-After` is honoured for, in seconds.
 MAX_RETRY_AFTER_S = 60.0
 #: The longest backoff between two attempts when the provider says nothing, in seconds.

@@ -14,7 +14,8 @@ the results rows and the traces, per study:
 - parse slips: tool calls written as text, double-encoded arguments, arguments that are not JSON
   (re-read from the traces with `robocog.agent.client.slips`, so traces of older code count alike);
   turns cut at the token limit (from `finish_reason`, which older traces lack: None there);
-- the seconds lost to retries: each attempt's wall time less its model turns and tool calls.
+- the seconds lost to retries: the retried attempts of each model turn (the turn's `retry_s`, which
+  older traces lack), and an errored attempt's wall time outside its model turns and tool calls.
 
 `LOCAL_MODEL_BEFORE=REV` also measures the code at git revision REV ("before"), installed apart
 (`pip install --target`) and put first on PYTHONPATH for the CLI and the robot server it spawns.
@@ -182,6 +183,9 @@ def _measure(results: Path) -> dict[str, Any]:
                 not_json += arguments is None
             elif isinstance(e, ToolResult) and e.structured is not None:
                 reached += 1
+        # Retries a turn recovered from are in its latency (retry_s); the failing turn of an errored
+        # attempt is no turn: its time is the attempt's wall time outside its turns and calls.
+        lost += sum(t.retry_s for t in turns)
         busy = sum(t.latency_s for t in turns) + sum(e.latency_s for e in events if isinstance(e, ToolResult))
         lost += max(0.0, row["wall_s"] - busy) if row["outcome"] == "error" else 0.0
     return {

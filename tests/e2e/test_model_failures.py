@@ -23,8 +23,10 @@ from robocog.agent.client import model_errors
 from robocog.agent.client.connection import Robot
 from robocog.agent.client.model import check_credentials, complete, resolve_api_key
 from robocog.agent.client.settings import AgentSettings
+from robocog.agent.client.trace_sinks import Trace
 from robocog.shared.errors import ModelServiceError
 from robocog.shared.evaluation import ModelSpec
+from robocog.shared.trace import ModelTurn
 from tests.e2e.model_route_fixtures import anyio_backend_fixture, fake_fixture, fresh_fixture, robot_fixture  # noqa: F401
 from tests.e2e.model_routes import END, HELLO, KEY_VARIABLES, ROUTES, episode
 from tests.fake_llm import Fail, FakeLLM, Reply, Turn
@@ -89,10 +91,14 @@ async def test_a_429_waits_what_retry_after_says(robot: Robot, fake: FakeLLM, mo
     fake.script = lambda request: next(replies)
     # A backoff of 10 s (5-15 s with jitter) would show: the wait must be the provider's 1 s.
     settings = AgentSettings(model=model, api_base=fake.api_base(model), backoff_s=10.0)
-    result, _ = await episode(robot, settings)
+    trace = Trace()
+    result, _ = await episode(robot, settings, trace)
     assert result.outcome == "ended" and result.error is None
     first, second = fake.model_requests
     assert 0.95 <= second.received - first.received < 2.5
+    # The turn keeps what the retry cost it (the failed call and the wait): part of its latency.
+    (turn,) = [e for e in trace.events if isinstance(e, ModelTurn)]
+    assert turn.retries == 1 and 0.95 <= turn.retry_s <= turn.latency_s
 
 
 async def test_a_429_without_retry_after_backs_off_with_jitter(fake: FakeLLM) -> None:
