@@ -51,10 +51,14 @@ ALIAS = "smollm2-135m"
 SAMPLE = 10
 #: The longest a model turn may write (the server's context is 8,192 tokens).
 MAX_TOKENS = 256
-#: Invocations per attempt and model turns per invocation: 3 and 6, not the protocol's 10 and 60, so
-#: that the bench ends within about 40 minutes on 2 cores (a 135M model's turn takes 5-30 s there).
-MAX_INVOCATIONS = 3
-MAX_STEPS = 6
+#: Invocations per attempt and model turns per invocation: 2 and 4, not the protocol's 10 and 60, so
+#: that the bench ends within about an hour on 2 cores (a 135M model's turn takes 2-30 s there, and
+#: a runaway turn minutes: llama-cpp-python's chatml-function-calling ignores max_tokens when it
+#: writes a tool call's arguments, so a turn can run on until the context is full).
+MAX_INVOCATIONS = 2
+MAX_STEPS = 4
+#: The longest a study may run; the rows written by then are measured (`local_model.*.cut_at_budget`).
+STUDY_BUDGET_S = 50 * 60
 #: Where each study's figures are written as soon as it is measured (a bench cut short keeps them).
 PARTIAL = HOME / "figures-partial.json"
 #: Where each study's results, traces and model server log are kept after the bench.
@@ -159,7 +163,7 @@ def _measure(results: Path) -> dict[str, Any]:
     from robocog.shared.trace import ModelTurn, RunStarted, ToolCall, ToolResult, read_trace
 
     rows = [json.loads(line) for line in results.read_text(encoding="utf-8").splitlines() if line.strip()]
-    outcomes = {"ended": 0, "stopped": 0, "error": 0}
+    outcomes = {"ended": 0, "stopped": 0, "error": 0, "not_run": 0}
     reached = text = double = not_json = cut = 0
     lost = 0.0
     finish_known = False
@@ -211,14 +215,25 @@ def _flat(prefix: str, values: dict[str, Any]) -> dict[str, object]:
     return out
 
 
-def _eval(config: Path, site: Path | None) -> None:
+def _eval(config: Path, site: Path | None) -> bool:
+    """Run the study; False when it was stopped at STUDY_BUDGET_S (its rows so far are in its file)."""
     env = {k: v for k, v in os.environ.items() if not k.endswith("_API_KEY")}
     if site is not None:
         env["PYTHONPATH"] = os.pathsep.join([str(site), env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
     robocog = [sys.executable, "-m", "robocog.agent.cli"]
-    done = subprocess.run([*robocog, "eval", str(config), "--allow-errors"], env=env, capture_output=True, text=True)
-    if done.returncode not in (0, 1):
-        raise RuntimeError(f"robocog eval {config.name} failed: {done.stderr[-2000:]}")
+    command = [*robocog, "eval", str(config), "--allow-errors"]
+    out, err = subprocess.DEVNULL, subprocess.PIPE
+    with subprocess.Popen(command, env=env, stdout=out, stderr=err, text=True, start_new_session=True) as study:
+        try:
+            _, stderr = study.communicate(timeout=STUDY_BUDGET_S)
+        except subprocess.TimeoutExpired:
+            os.killpg(study.pid, 15)  # the study and the robot server it spawned
+            study.communicate()
+            print(f"bench: local_model: {config.stem} stopped at its budget of {STUDY_BUDGET_S} s", file=sys.stderr)
+            return False
+    if study.returncode not in (0, 1):
+        raise RuntimeError(f"robocog eval {config.name} failed: {stderr[-2000:]}")
+    return True
 
 
 def _keep(where: Path, name: str) -> None:
@@ -256,10 +271,11 @@ def run() -> dict[str, object]:
                 port = _free_port()
                 server = _serve(port, where / f"llama-server-{label}-{part}.log")
                 try:
-                    _eval(_study(where, f"{label}-{part}", port, body), site)
+                    finished = _eval(_study(where, f"{label}-{part}", port, body), site)
                 finally:
                     _stop(server)
-                figures.update(_flat(f"local_model.{label}.{part}", _measure(where / f"{label}-{part}.jsonl")))
+                measured = _measure(where / f"{label}-{part}.jsonl") | {"cut_at_budget": not finished}
+                figures.update(_flat(f"local_model.{label}.{part}", measured))
                 _keep(where, f"{label}-{part}")
                 PARTIAL.write_text(json.dumps(figures, indent=1), encoding="utf-8")
     figures["local_model.model"] = (
