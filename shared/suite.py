@@ -264,8 +264,16 @@ def _split(directory: Path, split: str) -> tuple[Instance, ...]:
 
 
 def load_split(suite: str = DEFAULT_SUITE, split: str = "dev") -> list[Instance]:
-    """The instances of one split of a suite, in file order."""
-    return list(_split(suite_dir(suite), split))
+    """The instances of one split of a suite, in file order; a fresh split ("test@12345") from the
+    cache of `robocog.shared.seeded_splits`, generated there first when it is missing."""
+    directory = suite_dir(suite)
+    if "@" in split and not (directory / f"{split}.jsonl").is_file():
+        from robocog.shared.seeded_splits import load_seeded, parse_split
+
+        name, seed = parse_split(split)
+        assert seed is not None
+        return load_seeded(suite, name, seed)
+    return list(_split(directory, split))
 
 
 @cache

@@ -1,0 +1,165 @@
+"""Fresh splits: a suite's split generated on demand from a seed no model has seen, spelled
+`SPLIT@SEED` ("test@12345") wherever a split is named (a study's `split`, `robocog eval --split`, a
+submission's `split`, the leaderboard's split column).
+
+A seeded split is what `robocog suite generate --split SPLIT --seed SEED` writes (the manifest's
+size per family), byte-identical for the same seed. It is generated once into a cache
+(`cache_home()`: `$ROBOCOG_SPLITS_CACHE`, else `$XDG_CACHE_HOME/robocog/splits`, else
+`~/.cache/robocog/splits`) under a root keyed by the generator's digest (`root_for`: robocog's
+version, the generator's source, the suite's files and the scenes), as `ROOT/SUITE/SPLIT@SEED.jsonl`
+beside a copy of the suite's manifest. The generator lives on the client (`robocog.agent.suitegen`):
+its commands hand it to this module (`use_generator`); the server never generates, it reads the
+root it is given (`robocog-server --splits ROOT`), where `reset_world(suite="SUITE@SEED", ...)`
+finds the instance (`find_seeded_instance`).
+
+A seed is a decimal integer from 0 to `MAX_SEED`; a manifest asking more than `MAX_PER_FAMILY`
+instances per family is not generated on demand. Every refusal is a `ConfigError` of one line.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import re
+from collections.abc import Callable
+from functools import cache
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from robocog.shared.errors import ConfigError
+
+if TYPE_CHECKING:
+    from robocog.shared.suite import Instance
+
+#: The largest seed a fresh split takes (the generator's seeds are 31-bit).
+MAX_SEED = 2**31 - 1
+#: Instances per family a split generated on demand may have (robocog-v2.1's test split has 60).
+MAX_PER_FAMILY = 100
+_SEEDED = re.compile(r"([A-Za-z0-9_\-]{1,64})@([0-9]{1,10})")
+_SUITE_AT = re.compile(r"([A-Za-z0-9_\-]+(?:\.[A-Za-z0-9_\-]+)*)@([0-9]{1,10})")
+
+#: Writes a seeded split into the cache: (suite name or directory, split, seed, root) -> the file.
+Generator = Callable[[str, str, int, Path], Path]
+_generator: list[Generator] = []
+
+
+def use_generator(generate: Generator) -> None:
+    """Let `load_seeded` generate a split missing from the cache (the client's commands call this)."""
+    _generator[:] = [generate]
+
+
+def parse_split(text: object) -> tuple[str, int | None]:
+    """A split's name and its seed (None: the split the suite ships); a `ConfigError` refuses a seed
+    that is not a decimal integer from 0 to `MAX_SEED`, in one line."""
+    if not isinstance(text, str):
+        raise ConfigError(f"split {str(text)[:80]!r} is not a split's name")
+    if "@" not in text:
+        return text, None
+    match = _SEEDED.fullmatch(text)
+    if match is None or int(match[2]) > MAX_SEED:
+        raise ConfigError(
+            f"split {text[:80]!r}: a fresh split is SPLIT@SEED, SEED a decimal integer from 0 to {MAX_SEED}"
+        )
+    return match[1], int(match[2])
+
+
+def split_text(split: str, seed: int | None) -> str:
+    """A split as it is spelled: "test", or "test@12345" for one generated from a seed."""
+    return split if seed is None else f"{split}@{seed}"
+
+
+def cache_home() -> Path:
+    """Where fresh splits are generated (see the module's docstring)."""
+    explicit = os.environ.get("ROBOCOG_SPLITS_CACHE")
+    if explicit:
+        return Path(explicit)
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "robocog" / "splits"
+
+
+def _files(directory: Path, patterns: tuple[str, ...]) -> list[Path]:
+    return sorted(p for pattern in patterns for p in directory.glob(pattern) if p.is_file())
+
+
+@cache
+def _code_digest() -> str:
+    """robocog's version and the source of what generates and reads instances (read as files)."""
+    from robocog.assets import ASSETS_DIR
+    from robocog.shared import __version__
+
+    package = Path(__file__).resolve().parent.parent  # shared/ and agent/ side by side
+    digest = hashlib.sha256(__version__.encode())
+    parts = [(package / "shared", ("*.py",))]
+    parts += [(package / "agent" / p, ("*.py", "*.yaml")) for p in ("suitegen", "families", "symbolic")]
+    parts += [(ASSETS_DIR / "families", ("*.yaml",)), (ASSETS_DIR / "scenes", ("*.yaml", "generated/*.yaml"))]
+    for directory, patterns in parts:
+        for path in _files(directory, patterns):
+            digest.update(path.name.encode() + b"\0" + path.read_bytes())
+    return digest.hexdigest()
+
+
+def root_for(suite_directory: Path) -> Path:
+    """The cache root of the suite in `suite_directory` under the current generator (its digest)."""
+    digest = hashlib.sha256(_code_digest().encode())
+    for path in _files(suite_directory, ("suite.yaml", "*/*.yaml")):
+        digest.update(path.name.encode() + b"\0" + path.read_bytes())
+    return cache_home() / digest.hexdigest()[:20]
+
+
+def split_file(root: Path, suite_name: str, split: str, seed: int) -> Path:
+    return root / suite_name / f"{split}@{seed}.jsonl"
+
+
+def check_generable(per_family: int, where: str) -> None:
+    """Refuse a manifest asking more than `MAX_PER_FAMILY` instances per family of a fresh split."""
+    if per_family > MAX_PER_FAMILY:
+        raise ConfigError(
+            f"{where}: {per_family} instances per family; a fresh split generates at most {MAX_PER_FAMILY}"
+        )
+
+
+def seeded_root(suite: str, split: str, seed: int) -> Path:
+    """The cache root holding `split@seed` of `suite` (a name or a directory), generated first when it
+    is missing (a `ConfigError` when no generator is at hand: `use_generator`)."""
+    from robocog.shared.suite import load_suite, suite_dir
+
+    manifest = load_suite(suite)
+    if split not in manifest.splits:
+        raise ConfigError(f"suite {manifest.name} has no split {split!r} (its splits: {', '.join(manifest.splits)})")
+    check_generable(manifest.splits[split].per_family, f"suite {manifest.name}: split {split}")
+    root = root_for(suite_dir(suite))
+    if not split_file(root, manifest.name, split, seed).is_file():
+        if not _generator:
+            raise ConfigError(f"split {split}@{seed} of {manifest.name} is not generated (robocog eval generates it)")
+        _generator[0](suite, split, seed, root)
+    return root
+
+
+def load_seeded(suite: str, split: str, seed: int) -> list[Instance]:
+    """The instances of `split@seed` of `suite` (a name or a directory), from the cache."""
+    from robocog.shared.suite import load_split, load_suite
+
+    root = seeded_root(suite, split, seed)
+    return load_split(str(root / load_suite(suite).name), f"{split}@{seed}")
+
+
+def find_seeded_instance(root: Path | None, suite: str, instance_id: str) -> tuple[Instance, bool]:
+    """The instance `instance_id` of a fresh split (`suite` is "SUITE@SEED") in the cache root `root`
+    the server was given, and whether look_around describes objects in that suite; a ValueError (bad
+    input) when there is no root or no such instance."""
+    from robocog.shared.config_files import load_yaml_model
+    from robocog.shared.suite import Suite, load_split
+
+    match = _SUITE_AT.fullmatch(suite)
+    if match is None or int(match[2]) > MAX_SEED:
+        raise ValueError(f"suite {suite[:80]!r}: a fresh split's suite is SUITE@SEED (SEED 0 to {MAX_SEED})")
+    if root is None:
+        raise ValueError(f"suite {suite!r} names a fresh split, and this server was started without --splits")
+    directory = root / match[1]
+    splits = sorted(p.name.removesuffix(".jsonl") for p in directory.glob(f"*@{match[2]}.jsonl"))
+    for split in splits:
+        for instance in load_split(str(directory), split):
+            if instance.id == instance_id:
+                describes = load_yaml_model(directory / "suite.yaml", Suite).describes_objects
+                return instance, describes
+    raise ValueError(f"no fresh split of {suite!r} under --splits holds an instance {instance_id!r}")
