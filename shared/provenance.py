@@ -172,13 +172,13 @@ def shipped_task_sha256(task: str, suite: str | None = None, split: str | None =
     when robocog ships no such task."""
     if suite is None:
         return _shipped_tasks().get(task)
-    from robocog.shared.suite import SUITE_NAME, find_instance, load_split
+    from robocog.shared.suite import SUITE_NAME, SUITES_DIR, find_instance, load_split
 
     try:
         if split is not None and "@" in split:
-            if not SUITE_NAME.fullmatch(suite):
+            if not SUITE_NAME.fullmatch(suite) or not (SUITES_DIR / suite / "suite.yaml").is_file():
                 return None
-            found = [i for i in load_split(suite, split) if i.id == task]
+            found = [i for i in load_split(str(SUITES_DIR / suite), split) if i.id == task]
             return sha256_of(found[0].model_dump(mode="json")) if found else None
         return sha256_of(find_instance(suite, task).model_dump(mode="json"))
     except (KeyError, ValueError, FileNotFoundError):

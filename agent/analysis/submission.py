@@ -56,6 +56,15 @@ def _suite_and_split(rows: Sequence[AttemptRow], local: Sequence[Path] = ()) -> 
         return None, None
     named = {r.provenance.suite for r in rows if r.provenance and r.provenance.suite}
     suite = next(iter(named)) if len(named) == 1 else DEFAULT_SUITE
+    fresh = {f"{p.split}@{p.split_seed}" for r in rows if (p := r.provenance) and p.split_seed is not None}
+    if fresh:  # a fresh split, generated from a seed: the rows say which
+        if len(fresh) > 1 or any(r.provenance is None or r.provenance.split_seed is None for r in rows if r.instance and r.earlier is None):
+            raise ValueError("the rows' instances are not all of one fresh split")
+        split = next(iter(fresh))
+        directory = split_directory(suite, split, local)
+        if not instances <= {i.id for i in load_split(str(directory), split)}:
+            raise ValueError(f"the rows' instances are not all of {suite} / {split}")
+        return suite, split
     directory = suite_directory(suite, local)
     for path in sorted(directory.glob("*.jsonl")):
         if instances <= {i.id for i in load_split(str(directory), path.stem)}:
@@ -168,10 +177,13 @@ def _coverage(data: dict[str, Any], rows: Sequence[AttemptRow], local: Sequence[
         try:
             directory = split_directory(data["suite"], data["split"], local)
             wanted = [i.id for i in load_split(str(directory), data["split"])]
+            derived = _suite_and_split(rows, local)  # a fresh split's seed is the rows' own
         except Refused as exc:
             return [str(exc)]
         except (OSError, ValueError) as exc:
             return [f"suite {data['suite']} / split {data['split']}: {' '.join(str(exc).split())}"]
+        if derived != (data["suite"], data["split"]):
+            return [f"it declares {data['suite']} / {data['split']}, but its rows ran on {derived[0]} / {derived[1]}"]
         where = f"{data['suite']}/{data['split']}"
     else:
         wanted = list(data.get("tasks") or [])[:1]

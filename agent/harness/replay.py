@@ -4,7 +4,8 @@ again in a fresh world on a real server, and its verdict recomputed from the phy
 The rows are replayed unit by unit (a model and a trial, in file order), as `robocog eval` ran them:
 each memory iteration resets the world with the row's seed and the unit's memory namespace (cleared
 at iteration 0), a suite instance's world is set up from its instance (the shipped suite the row's
-provenance names: its scene, start, perturbations), its earlier tasks replayed before it, and each
+provenance names, or the fresh split its seed regenerates: its scene, start, perturbations), its
+earlier tasks replayed before it, and each
 task begins its own episode. Each tool call the attempt's trace records is sent to the server with
 its recorded arguments (a call the client rejected without the server, bad JSON or a tool not
 offered, keeps its recorded result); the new results and perturbations take the place of the
@@ -189,7 +190,10 @@ class Replayer:
                 continue
             started = time.perf_counter()
             if r.instance and r.instance not in set_up:
-                suite = r.provenance.suite if r.provenance else None
+                p = r.provenance
+                suite = p.suite if p else None
+                if p is not None and p.split_seed is not None:  # a fresh split: the server's --splits holds it
+                    suite = f"{suite}@{p.split_seed}"
                 await self.controls.reset_world(instance=r.instance, suite=suite, **reset)
                 set_up.add(r.instance)
             episode = episode_id(f"replay-{r.study}", r.model, r.seed, r.trial, iteration, r.task)
