@@ -177,12 +177,13 @@ def _coverage(data: dict[str, Any], rows: Sequence[AttemptRow], local: Sequence[
         try:
             directory = split_directory(data["suite"], data["split"], local)
             wanted = [i.id for i in load_split(str(directory), data["split"])]
-            derived = _suite_and_split(rows, local)  # a fresh split's seed is the rows' own
+            fresh = "@" in data["split"] or any(r.provenance and r.provenance.split_seed is not None for r in rows)
+            derived = _suite_and_split(rows, local) if fresh else (data["suite"], data["split"])
         except Refused as exc:
             return [str(exc)]
         except (OSError, ValueError) as exc:
             return [f"suite {data['suite']} / split {data['split']}: {' '.join(str(exc).split())}"]
-        if derived != (data["suite"], data["split"]):
+        if derived != (data["suite"], data["split"]):  # a fresh split's seed is the rows' own
             return [f"it declares {data['suite']} / {data['split']}, but its rows ran on {derived[0]} / {derived[1]}"]
         where = f"{data['suite']}/{data['split']}"
     else:
