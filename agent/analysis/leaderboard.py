@@ -173,7 +173,8 @@ def entry(model: str, protocol: str, pairs: list[Pair], split: Split = (None, No
 
 
 def _attempt_key(r: AttemptRow) -> tuple[object, ...]:
-    return (r.study, r.model, r.protocol, r.seed, r.trial, r.memory_iteration, r.task)
+    fresh = r.provenance.split_seed if r.provenance else None  # the same ids on two fresh splits are two attempts
+    return (r.study, r.model, r.protocol, r.seed, r.trial, r.memory_iteration, r.task, fresh)
 
 
 def board(studies: Sequence[Study]) -> Board:
