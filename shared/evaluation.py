@@ -147,9 +147,10 @@ class EvalConfig(BaseModel):
         return self
 
 
-def load_config(path: Path) -> EvalConfig:
-    """Load and validate a study config; errors name the file and the field."""
-    return load_yaml_model(path, EvalConfig)
+def load_config(path: Path, split: str | None = None) -> EvalConfig:
+    """Load and validate a study config (its split `split` when given: `robocog eval --split`); errors
+    name the file and the field."""
+    return load_yaml_model(path, EvalConfig, overrides=None if split is None else {"split": split})
 
 
 class AttemptRow(BaseModel):

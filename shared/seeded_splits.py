@@ -89,7 +89,7 @@ def _code_digest() -> str:
 
     package = Path(__file__).resolve().parent.parent  # shared/ and agent/ side by side
     digest = hashlib.sha256(__version__.encode())
-    parts = [(package / "shared", ("*.py",))]
+    parts: list[tuple[Path, tuple[str, ...]]] = [(package / "shared", ("*.py",))]
     parts += [(package / "agent" / p, ("*.py", "*.yaml")) for p in ("suitegen", "families", "symbolic")]
     parts += [(ASSETS_DIR / "families", ("*.yaml",)), (ASSETS_DIR / "scenes", ("*.yaml", "generated/*.yaml"))]
     for directory, patterns in parts:

@@ -89,14 +89,10 @@ class Entry:
 
     @property
     def split_shown(self) -> str:
-        """The suite and split as the page shows them: "robocog-v2.1 / test@12345", or "– " for the
-        paper's tasks; a split the suite ships says so ("robocog-v2.1 / test (shipped)")."""
+        """The split as the page shows it: "robocog-v2.1 / test@12345" for a fresh split, "shipped" for
+        rows of the shipped splits and tasks (pooled as they always were)."""
         suite, split, seed = self.split
-        if suite is None:
-            return "–"
-        if seed is None:
-            return f"{suite} / {split} (shipped)" if split else suite
-        return f"{suite} / {split}@{seed}"
+        return "shipped" if seed is None else f"{suite} / {split}@{seed}"
 
 
 @dataclass(frozen=True)
@@ -108,6 +104,11 @@ class Board:
     ks: tuple[int, ...]
     warnings: tuple[str, ...] = field(default=())
 
+    @property
+    def fresh(self) -> bool:
+        """Whether an entry ran on a fresh split: the board then shows a split column."""
+        return any(e.split[2] is not None for e in self.entries)
+
 
 def _mean(values: list[float]) -> float | None:
     return sum(values) / len(values) if values else None
@@ -115,19 +116,21 @@ def _mean(values: list[float]) -> float | None:
 
 #: A row, where it came from, whether its trace is present and how its replay went (None: not replayed).
 Pair = tuple[str, AttemptRow, bool, str | None]
-#: A row's suite, split and fresh split's seed (None: the split shipped): the leaderboard groups by it.
+#: A fresh split's suite, split and seed, the leaderboard's groups; (None, None, None) for the rows of
+#: the splits and tasks robocog ships, which pool as they always did.
 Split = tuple[str | None, str | None, int | None]
 
 
 def _splits(rows: Sequence[AttemptRow]) -> list[Split]:
     """Each row's `Split`, from its provenance; an instance's earlier task (whose provenance names no
-    suite) takes its instance's."""
+    split) takes its instance's."""
+
     def own(r: AttemptRow) -> Split:
         p = r.provenance
-        return (None, None, None) if p is None or p.suite is None else (p.suite, p.split, p.split_seed)
+        return (None, None, None) if p is None or p.split_seed is None else (p.suite, p.split, p.split_seed)
 
     of_instance = {r.instance: own(r) for r in rows if r.instance and r.earlier is None}
-    return [of_instance.get(r.instance, own(r)) if r.earlier is not None else own(r) for r in rows]
+    return [of_instance.get(r.instance or "", own(r)) if r.earlier is not None else own(r) for r in rows]
 
 
 def _replay_problems(pairs: Sequence[Pair]) -> tuple[list[str], int, int]:
@@ -178,9 +181,9 @@ def _attempt_key(r: AttemptRow) -> tuple[object, ...]:
 
 
 def board(studies: Sequence[Study]) -> Board:
-    """The leaderboard of `studies`: one entry per model, protocol and split (suite, split and the seed
-    of a fresh split: `Split`), grouped by split in the order the studies first show it, then by
-    success (highest first), then by name. A ValueError
+    """The leaderboard of `studies`: one entry per model and protocol, and per fresh split (suite, split
+    and seed: `Split`; two seeds never pool, nor a fresh split with the shipped ones), grouped by split
+    in the order the studies first show it, then by success (highest first), then by name. A ValueError
     when two studies hold the same attempts (a study given twice, as results and as a submission)."""
     seen: dict[tuple[object, ...], str] = {}
     for s in studies:
@@ -284,6 +287,7 @@ def board_json(b: Board) -> dict[str, Any]:
         "families": list(b.families),
         "capabilities": list(b.capabilities),
         "ks": list(b.ks),
+        "fresh_splits": b.fresh,
         "warnings": list(b.warnings),
         "entries": [entry_json(e, b) for e in b.entries],
     }
@@ -295,14 +299,16 @@ def _with_ci(value: str, ci: str) -> str:
 
 def board_markdown(b: Board) -> str:
     """The leaderboard as a markdown table (leaderboard.md), its numbers those of the page (`shown`)."""
-    header = ["#", "model", "protocol", "split", "verified", "attempts", "success [95% CI]", "false success"]
+    header = ["#", "model", "protocol", *(["split"] if b.fresh else []), "verified", "attempts"]
+    header += ["success [95% CI]", "false success"]
     header += [f"pass^{k}" for k in b.ks] + list(b.families) + [f"cap. {c}" for c in b.capabilities]
     header += ["tokens / attempt", "cost / attempt"]
     lines = []
     for i, e in enumerate(b.entries, 1):
         t = shown(e, b)
         mark = f"{'yes' if e.verification.verified else 'no'} ({t['replayed']})"
-        line = [str(i), cell(e.model), e.protocol, cell(t["split"]), mark, str(e.overall.attempts)]
+        line = [str(i), cell(e.model), e.protocol, *([cell(t["split"])] if b.fresh else []), mark]
+        line += [str(e.overall.attempts)]
         line += [_with_ci(t["success"], t["success_ci"]), _with_ci(t["false_success"], t["false_success_ci"])]
         line += [_with_ci(t["pass_k"][str(k)], t["pass_k_ci"][str(k)]) for k in b.ks]
         line += [t["families"][f] for f in b.families] + [t["capabilities"][c] for c in b.capabilities]

@@ -58,7 +58,9 @@ def _suite_and_split(rows: Sequence[AttemptRow], local: Sequence[Path] = ()) -> 
     suite = next(iter(named)) if len(named) == 1 else DEFAULT_SUITE
     fresh = {f"{p.split}@{p.split_seed}" for r in rows if (p := r.provenance) and p.split_seed is not None}
     if fresh:  # a fresh split, generated from a seed: the rows say which
-        if len(fresh) > 1 or any(r.provenance is None or r.provenance.split_seed is None for r in rows if r.instance and r.earlier is None):
+        if len(fresh) > 1 or any(
+            r.provenance is None or r.provenance.split_seed is None for r in rows if r.instance and r.earlier is None
+        ):
             raise ValueError("the rows' instances are not all of one fresh split")
         split = next(iter(fresh))
         directory = split_directory(suite, split, local)

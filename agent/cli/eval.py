@@ -112,7 +112,7 @@ def main(args: argparse.Namespace) -> int:
             print("robocog: --ray needs Ray: pip install 'robocog[ray]'", file=sys.stderr)
             return 2
     try:
-        config = load_config(args.config)
+        config = load_config(args.config, split=getattr(args, "split", None))  # the split given, not the file's
     except ConfigError as exc:
         print(f"robocog: {exc}", file=sys.stderr)
         return 2
@@ -123,7 +123,6 @@ def main(args: argparse.Namespace) -> int:
         "workers": args.workers,
         "isolation": args.isolation,
         "fleet_processes": args.fleet_processes,
-        "split": getattr(args, "split", None),
     }
     updates = {k: v for k, v in overrides.items() if v is not None}
     try:  # validated exactly as the same values in the file would be

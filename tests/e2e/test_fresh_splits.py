@@ -58,7 +58,8 @@ def runs(world: tuple[Path, dict[str, str]]) -> dict[int, Path]:
     out = {}
     for seed in (12345, 777):
         results = folder / f"r{seed}" / "results.jsonl"
-        done = robocog("eval", "study.yaml", "--split", f"test@{seed}", "--out", results, "--quiet", cwd=folder, env=env)
+        split = f"test@{seed}"
+        done = robocog("eval", "study.yaml", "--split", split, "--out", results, "--quiet", cwd=folder, env=env)
         assert done.returncode == 0, done.stderr
         assert f"generated tiny test@{seed}: 2 instances" in done.stderr
         submission = folder / f"s{seed}.json"

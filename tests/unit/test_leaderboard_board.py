@@ -108,7 +108,7 @@ def test_verified_needs_shipped_provenance_every_trace_and_a_replay_that_matches
     assert replayed == {"m": (2, 2), "n": (0, 2), "o": (2, 2), "u": (0, 2), "f": (2, 2), "e": (1, 1)}
     text = board_markdown(result)
     assert "- n (robocog): trace missing (2 rows); not replayed (2 rows)" in text
-    assert "| f | robocog | – | no (2 of 2 replayed) |" in text and "| m | robocog | – | yes (2 of 2 replayed) |" in text
+    assert "| f | robocog | no (2 of 2 replayed) |" in text and "| m | robocog | yes (2 of 2 replayed) |" in text
 
 
 def test_the_same_attempts_twice_are_refused() -> None:
