@@ -24,7 +24,7 @@ def generate_into(suite: str, split: str, seed: int, root: Path) -> Path:
     out.parent.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
     workers = max(1, min(4, os.cpu_count() or 1))
-    text = dump_instances(generate(manifest, split, seed=seed, workers=workers))
+    text = dump_instances(generate(manifest, split, seed=seed, workers=workers, directory=suite_dir(suite)))
     shutil.copyfile(suite_dir(suite) / "suite.yaml", out.parent / f"suite.yaml.{os.getpid()}")
     os.replace(out.parent / f"suite.yaml.{os.getpid()}", out.parent / "suite.yaml")
     partial = out.with_name(f"{out.name}.{os.getpid()}")
