@@ -137,6 +137,11 @@ def main(args: argparse.Namespace) -> int:
         print(f"robocog: {exc}", file=sys.stderr)
         return 2
     config = _with_splits(config)
+    if args.url and "--splits" in config.server_args:  # servers this study does not start
+        root = config.server_args[config.server_args.index("--splits") + 1]
+        print(
+            f"robocog: the fleet servers at --url read the fresh split if started with --splits {root}", file=sys.stderr
+        )
     if config.suite is None:  # the paper's tasks: each must be in the catalogue, before any server starts
         from robocog.agent.cli.preflight import unknown_task_id
 
