@@ -10,7 +10,8 @@ version, the generator's source, the suite's files and the scenes), as `ROOT/SUI
 beside a copy of the suite's manifest. The generator lives on the client (`robocog.agent.suitegen`):
 its commands hand it to this module (`use_generator`); the server never generates, it reads the
 root it is given (`robocog-server --splits ROOT`), where `reset_world(suite="SUITE@SEED", ...)`
-finds the instance (`find_seeded_instance`).
+finds the instance (`robocog.shared.suite.find_seeded_instance`; `load_split` reads a fresh split
+from the cache, generating it first when it is missing).
 
 A seed is a decimal integer from 0 to `MAX_SEED`; a manifest asking more than `MAX_PER_FAMILY`
 instances per family is not generated on demand. Every refusal is a `ConfigError` of one line.
@@ -24,19 +25,16 @@ import re
 from collections.abc import Callable
 from functools import cache
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from robocog.shared.errors import ConfigError
-
-if TYPE_CHECKING:
-    from robocog.shared.suite import Instance
 
 #: The largest seed a fresh split takes (the generator's seeds are 31-bit).
 MAX_SEED = 2**31 - 1
 #: Instances per family a split generated on demand may have (robocog-v2.1's test split has 60).
 MAX_PER_FAMILY = 100
 _SEEDED = re.compile(r"([A-Za-z0-9_\-]{1,64})@([0-9]{1,10})")
-_SUITE_AT = re.compile(r"([A-Za-z0-9_\-]+(?:\.[A-Za-z0-9_\-]+)*)@([0-9]{1,10})")
+#: A fresh split's suite as reset_world names it: "robocog-v2.1@12345".
+SUITE_AT = re.compile(r"([A-Za-z0-9_\-]+(?:\.[A-Za-z0-9_\-]+)*)@([0-9]{1,10})")
 
 #: Writes a seeded split into the cache: (suite name or directory, split, seed, root) -> the file.
 Generator = Callable[[str, str, int, Path], Path]
@@ -44,7 +42,7 @@ _generator: list[Generator] = []
 
 
 def use_generator(generate: Generator) -> None:
-    """Let `load_seeded` generate a split missing from the cache (the client's commands call this)."""
+    """Let `load_split` generate a fresh split missing from the cache (the client's commands call this)."""
     _generator[:] = [generate]
 
 
@@ -118,48 +116,8 @@ def check_generable(per_family: int, where: str) -> None:
         )
 
 
-def seeded_root(suite: str, split: str, seed: int) -> Path:
-    """The cache root holding `split@seed` of `suite` (a name or a directory), generated first when it
-    is missing (a `ConfigError` when no generator is at hand: `use_generator`)."""
-    from robocog.shared.suite import load_suite, suite_dir
-
-    manifest = load_suite(suite)
-    if split not in manifest.splits:
-        raise ConfigError(f"suite {manifest.name} has no split {split!r} (its splits: {', '.join(manifest.splits)})")
-    check_generable(manifest.splits[split].per_family, f"suite {manifest.name}: split {split}")
-    root = root_for(suite_dir(suite))
-    if not split_file(root, manifest.name, split, seed).is_file():
-        if not _generator:
-            raise ConfigError(f"split {split}@{seed} of {manifest.name} is not generated (robocog eval generates it)")
-        _generator[0](suite, split, seed, root)
-    return root
-
-
-def load_seeded(suite: str, split: str, seed: int) -> list[Instance]:
-    """The instances of `split@seed` of `suite` (a name or a directory), from the cache."""
-    from robocog.shared.suite import load_split, load_suite
-
-    root = seeded_root(suite, split, seed)
-    return load_split(str(root / load_suite(suite).name), f"{split}@{seed}")
-
-
-def find_seeded_instance(root: Path | None, suite: str, instance_id: str) -> tuple[Instance, bool]:
-    """The instance `instance_id` of a fresh split (`suite` is "SUITE@SEED") in the cache root `root`
-    the server was given, and whether look_around describes objects in that suite; a ValueError (bad
-    input) when there is no root or no such instance."""
-    from robocog.shared.config_files import load_yaml_model
-    from robocog.shared.suite import Suite, load_split
-
-    match = _SUITE_AT.fullmatch(suite)
-    if match is None or int(match[2]) > MAX_SEED:
-        raise ValueError(f"suite {suite[:80]!r}: a fresh split's suite is SUITE@SEED (SEED 0 to {MAX_SEED})")
-    if root is None:
-        raise ValueError(f"suite {suite!r} names a fresh split, and this server was started without --splits")
-    directory = root / match[1]
-    splits = sorted(p.name.removesuffix(".jsonl") for p in directory.glob(f"*@{match[2]}.jsonl"))
-    for split in splits:
-        for instance in load_split(str(directory), split):
-            if instance.id == instance_id:
-                describes = load_yaml_model(directory / "suite.yaml", Suite).describes_objects
-                return instance, describes
-    raise ValueError(f"no fresh split of {suite!r} under --splits holds an instance {instance_id!r}")
+def generate_missing(suite: str, split: str, seed: int, root: Path) -> None:
+    """Generate `split@seed` of `suite` into `root` with the generator at hand (`use_generator`)."""
+    if not _generator:
+        raise ConfigError(f"split {split}@{seed} of {suite} is not generated (robocog eval generates it)")
+    _generator[0](suite, split, seed, root)

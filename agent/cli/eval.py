@@ -86,7 +86,8 @@ def preflight_study(config: EvalConfig, out: Path, *, resume: bool) -> None:
 
 def _with_splits(config: EvalConfig) -> EvalConfig:
     """A study of a fresh split ("test@12345"): its servers told where its instances are (--splits)."""
-    from robocog.shared.seeded_splits import parse_split, seeded_root
+    from robocog.shared.seeded_splits import parse_split
+    from robocog.shared.suite import seeded_root
 
     split, seed = parse_split(config.split)
     if config.suite is None or seed is None:

@@ -72,7 +72,7 @@ def _splits_root(rows: Sequence[Any], local: list[Path]) -> Path | None:
     """The cache root of the fresh split the rows ran on (regenerated from its seed when missing), for
     the replay's server (`--splits`); None when they ran on a shipped split."""
     from robocog.agent.analysis.untrusted import split_directory
-    from robocog.shared.seeded_splits import seeded_root
+    from robocog.shared.suite import seeded_root
 
     fresh = {(p.suite, p.split, p.split_seed) for r in rows if (p := r.provenance) and p.split_seed is not None}
     if not fresh:

@@ -27,8 +27,7 @@ from robocog.server.world.world import ActionLimit, World
 from robocog.shared.perturbations import Perturbation, PerturbationEvent
 from robocog.shared.results import ObjectPlacement, WorldState
 from robocog.shared.scene_files import scene_path
-from robocog.shared.seeded_splits import find_seeded_instance
-from robocog.shared.suite import Instance, describes_objects, find_instance
+from robocog.shared.suite import Instance, describes_objects, find_instance, find_seeded_instance
 from robocog.shared.tasks import TaskSpec
 
 R = TypeVar("R", bound=BaseModel)
