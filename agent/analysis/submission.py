@@ -302,4 +302,7 @@ def load_study(path: Path, local: Sequence[Path] = ()) -> Study:
     """A results file (`.jsonl`) or a submission (`.json`, validated first; its suite shipped or one of
     the suite directories `local`), with its replay record (`robocog submit verify`) if one lies beside it."""
     study = read_submission(path, local).study(path.name) if path.suffix == ".json" else results_study(path)
+    fresh = {(p.suite, p.split, p.split_seed) for r in study.rows if (p := r.provenance) and p.split_seed is not None}
+    if len(fresh) > 1:  # each would be generated to check its rows: a study runs on one split
+        raise ValueError(f"{path}: its rows ran on {len(fresh)} fresh splits; a study runs on one")
     return replace(study, replayed=statuses(path, len(study.rows)))

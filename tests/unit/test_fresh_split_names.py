@@ -5,10 +5,13 @@ shipped splits pooled as before."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 from pydantic import ValidationError
 
 from robocog.agent.analysis.leaderboard import board, board_json, board_markdown
+from robocog.agent.analysis.submission import load_study
 from robocog.shared.errors import ConfigError
 from robocog.shared.evaluation import AttemptRow, EvalConfig
 from robocog.shared.seeded_splits import MAX_SEED, parse_split, split_text
@@ -56,3 +59,11 @@ def test_the_leaderboard_keeps_fresh_splits_apart_and_the_shipped_ones_pooled() 
     assert "| split |" in text and "| robocog-v2.1 / test@777 |" in text and "| shipped |" in text
     plain = board([study("c", shipped_rows)])
     assert "| split |" not in board_markdown(plain) and board_json(plain)["fresh_splits"] is False
+
+
+def test_a_results_file_of_many_fresh_splits_is_refused_before_any_is_generated(tmp_path: Path) -> None:
+    rows = [_fresh("m", t, seed) for t, seed in enumerate((1, 2, 3))]
+    path = tmp_path / "many.jsonl"
+    path.write_text("".join(r.model_dump_json() + "\n" for r in rows))
+    with pytest.raises(ValueError, match="its rows ran on 3 fresh splits; a study runs on one"):
+        load_study(path)
