@@ -175,9 +175,9 @@ def entry(model: str, protocol: str, pairs: list[Pair], split: Split = (None, No
     )
 
 
-def _attempt_key(r: AttemptRow) -> tuple[object, ...]:
-    fresh = r.provenance.split_seed if r.provenance else None  # the same ids on two fresh splits are two attempts
-    return (r.study, r.model, r.protocol, r.seed, r.trial, r.memory_iteration, r.task, fresh)
+def _attempt_key(r: AttemptRow, split: Split) -> tuple[object, ...]:
+    # the same ids on two fresh splits are two attempts (an earlier task's split is its instance's)
+    return (r.study, r.model, r.protocol, r.seed, r.trial, r.memory_iteration, r.task, split)
 
 
 def board(studies: Sequence[Study]) -> Board:
@@ -187,7 +187,7 @@ def board(studies: Sequence[Study]) -> Board:
     when two studies hold the same attempts (a study given twice, as results and as a submission)."""
     seen: dict[tuple[object, ...], str] = {}
     for s in studies:
-        for key in dict.fromkeys(_attempt_key(r) for r in s.rows):
+        for key in dict.fromkeys(_attempt_key(r, split) for r, split in zip(s.rows, _splits(s.rows), strict=True)):
             if key in seen:
                 raise ValueError(f"{seen[key]} and {s.name} hold the same attempts (study {key[0]!r}): give each once")
             seen[key] = s.name

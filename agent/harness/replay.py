@@ -145,6 +145,18 @@ def _believed(events: Sequence[TraceEvent]) -> bool | None:
     return believed
 
 
+def _suites(rows: Sequence[AttemptRow]) -> dict[str, str]:
+    """The suite each instance is set up from, as reset_world names it (a fresh split's is SUITE@SEED,
+    the server's --splits holding it), read off the instance's own rows: an earlier task's provenance
+    names no suite."""
+    out: dict[str, str] = {}
+    for r in rows:
+        p = r.provenance
+        if r.instance and r.earlier is None and p is not None and p.suite:
+            out[r.instance] = p.suite if p.split_seed is None else f"{p.suite}@{p.split_seed}"
+    return out
+
+
 def _units(rows: Sequence[AttemptRow]) -> dict[tuple[str, str, int], list[int]]:
     units: dict[tuple[str, str, int], list[int]] = {}
     for i, r in enumerate(rows):
@@ -166,6 +178,7 @@ class Replayer:
         iteration: int | None = None
         reset: dict[str, Any] = {}
         set_up: set[str] = set()
+        suites = _suites([rows[i] for i in indices])
         for i in indices:
             r = rows[i]
             protocol = PROTOCOLS[r.protocol]
@@ -190,10 +203,7 @@ class Replayer:
                 continue
             started = time.perf_counter()
             if r.instance and r.instance not in set_up:
-                p = r.provenance
-                suite = p.suite if p else None
-                if p is not None and p.split_seed is not None:  # a fresh split: the server's --splits holds it
-                    suite = f"{suite}@{p.split_seed}"
+                suite = suites.get(r.instance, r.provenance.suite if r.provenance else None)
                 await self.controls.reset_world(instance=r.instance, suite=suite, **reset)
                 set_up.add(r.instance)
             episode = episode_id(f"replay-{r.study}", r.model, r.seed, r.trial, iteration, r.task)

@@ -1,8 +1,9 @@
 """Fresh splits (issue 47): a study names a split generated on demand from a seed (`split: test@SEED`),
-in real `robocog` processes. A tiny suite of the verifier's own (`--suite-dir`: two of robocog-v2.1's
-families, one instance each, the paper's house) keeps each split at two instances: the planner runs
-it, the rows carry the seed, `submit validate` and `submit verify` regenerate it from the seed and
-replay it, and the leaderboard keeps two seeds apart. A hostile seed is refused in one line, exit 2."""
+in real `robocog` processes. A tiny suite of the verifier's own (`--suite-dir`: three of robocog-v2.1's
+families, one with an earlier task, one instance each, the paper's house) keeps each split at three
+instances: the planner runs it, the rows carry the seed, `submit validate` and `submit verify`
+regenerate it from the seed and replay it (the earlier task in its instance's world), and the
+leaderboard keeps two seeds apart. A hostile seed is refused in one line, exit 2."""
 
 from __future__ import annotations
 
@@ -18,7 +19,7 @@ import pytest
 from robocog.shared.suite import SUITES_DIR
 
 MANIFEST = """name: tiny
-families: [put_away, swap]
+families: [put_away, swap, memory]
 scenes: [household]
 tagged: true
 family_dir: families
@@ -61,7 +62,7 @@ def runs(world: tuple[Path, dict[str, str]]) -> dict[int, Path]:
         split = f"test@{seed}"
         done = robocog("eval", "study.yaml", "--split", split, "--out", results, "--quiet", cwd=folder, env=env)
         assert done.returncode == 0, done.stderr
-        assert f"generated tiny test@{seed}: 2 instances" in done.stderr
+        assert f"generated tiny test@{seed}: 3 instances" in done.stderr
         submission = folder / f"s{seed}.json"
         done = robocog("submit", "prepare", results, "--out", submission, "--suite-dir", "tiny", cwd=folder, env=env)
         assert done.returncode == 0, done.stderr
@@ -72,11 +73,12 @@ def runs(world: tuple[Path, dict[str, str]]) -> dict[int, Path]:
 def test_a_study_on_a_fresh_split_records_its_seed(world: tuple[Path, dict[str, str]], runs: dict[int, Path]) -> None:
     folder, env = world
     rows = [json.loads(line) for line in (folder / "r12345" / "results.jsonl").read_text().splitlines()]
-    assert [r["instance"] for r in rows] == ["test-put_away-000", "test-swap-000"]
-    assert all(r["true_success"] for r in rows)  # the planner solves both
-    assert {(r["provenance"]["suite"], r["provenance"]["split"], r["provenance"]["split_seed"]) for r in rows} == {
-        ("tiny", "test", 12345)
-    }
+    assert [(r["instance"], r.get("earlier")) for r in rows] == [
+        ("test-put_away-000", None), ("test-swap-000", None), ("test-memory-000", 1), ("test-memory-000", None),
+    ]  # fmt: skip
+    assert all(r["true_success"] for r in rows)  # the planner solves them, the earlier task too
+    own = [r["provenance"] for r in rows if r.get("earlier") is None]  # an earlier task's names no suite
+    assert {(p["suite"], p["split"], p["split_seed"]) for p in own} == {("tiny", "test", 12345)}
     # the instances are those `robocog suite generate --seed` writes, byte for byte
     cached = next((folder / "cache").glob("*/tiny/test@12345.jsonl"))
     done = robocog("suite", "generate", "--suite", "tiny", "--split", "test", "--seed", "12345", cwd=folder, env=env)
@@ -93,10 +95,11 @@ def test_validate_and_verify_regenerate_the_split_from_its_seed(
     shutil.rmtree(folder / "cache")  # the verifier's machine has never seen the seed
     done = robocog("submit", "validate", runs[12345], "--suite-dir", "tiny", cwd=folder, env=env)
     assert done.returncode == 0, done.stderr
-    assert "valid (2 rows, 1 trials per instance, tiny/test@12345)" in done.stdout
+    assert "valid (4 rows, 1 trials per instance, tiny/test@12345)" in done.stdout
     done = robocog("submit", "verify", runs[12345], "--suite-dir", "tiny", cwd=folder, env=env)
     assert done.returncode == 0, done.stderr
-    assert "replayed 2 of 2 attempts" in done.stdout and "every verdict as recorded" in done.stdout
+    # the earlier task too, in the world of its instance (of the fresh split, not the shipped one)
+    assert "replayed 4 of 4 attempts" in done.stdout and "every verdict as recorded" in done.stdout
     # a submission that says another seed than its rows ran on is refused
     data = json.loads(runs[12345].read_text())
     (folder / "claims.json").write_text(json.dumps({**data, "split": "test@777"}))
@@ -112,8 +115,8 @@ def test_the_leaderboard_keeps_two_seeds_apart(world: tuple[Path, dict[str, str]
     assert done.returncode == 0, done.stderr
     entries = json.loads((board / "leaderboard.json").read_text())["entries"]
     assert sorted((e["model"], e["suite"], e["split"], e["seed"], e["attempts"]) for e in entries) == [
-        ("planner", "tiny", "test", 777, 2),
-        ("planner", "tiny", "test", 12345, 2),
+        ("planner", "tiny", "test", 777, 3),
+        ("planner", "tiny", "test", 12345, 3),
     ]
     markdown = (board / "leaderboard.md").read_text()
     assert "| tiny / test@12345 |" in markdown and "| tiny / test@777 |" in markdown
