@@ -148,6 +148,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         memory_labels=args.memory_labels,
         search_k=args.search_k,
         observe=args.observe,
+        splits=args.splits,
     )
     try:
         server = build_server(

@@ -149,6 +149,14 @@ def build_parser() -> argparse.ArgumentParser:
         help="what look_around reveals: the robot's location, its room, or the whole house (the default; "
         "reset_world(observe=...) changes it per episode)",
     )
+    w.add_argument(
+        "--splits",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help="fresh splits generated from a seed (robocog eval writes them and passes this): "
+        "reset_world(suite='SUITE@SEED') finds their instances in DIR/SUITE/SPLIT@SEED.jsonl",
+    )
     w.add_argument("--gui", action="store_true", help="open the PyBullet GUI (needs a display)")
     w.add_argument(
         "--processes",

@@ -47,6 +47,8 @@ class SessionConfig:
     memory_labels: MemoryLabels = "believed"
     search_k: int = 3
     observe: Observe = "house"
+    #: Fresh splits' cache root (`robocog.shared.seeded_splits`): reset_world(suite="SUITE@SEED") reads it.
+    splits: Path | None = None
 
 
 @dataclass(frozen=True)

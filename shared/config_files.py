@@ -132,8 +132,11 @@ def read_yaml(path: Path, max_bytes: int | None = None) -> Any:
         raise ConfigError(f"{path}: not valid YAML: nested too deeply") from exc
 
 
-def load_yaml_model(path: Path, model: type[M], max_bytes: int | None = None) -> M:
-    """Read `path` as YAML and validate it as `model`; errors name the file, the field and the problem.
+def load_yaml_model(
+    path: Path, model: type[M], max_bytes: int | None = None, overrides: dict[str, Any] | None = None
+) -> M:
+    """Read `path` as YAML and validate it as `model`, with the fields of `overrides` in place of the
+    file's (a command line's); errors name the file, the field and the problem.
 
     Every error is one line, `FILE: FIELD: problem` (`FILE: line L, column C: ...` for YAML syntax); a
     file longer than `max_bytes` is refused before it is read.
@@ -142,6 +145,7 @@ def load_yaml_model(path: Path, model: type[M], max_bytes: int | None = None) ->
     if not isinstance(data, dict):
         got = "an empty file" if data is None else f"a {type(data).__name__}"
         raise ConfigError(f"{path}: expected a mapping of fields (name: value), got {got}")
+    data = {**data, **(overrides or {})}
     bad = _non_finite(data)
     if bad is not None:
         raise ConfigError(f"{path}: {bad}: must be a finite number, not NaN or infinity")

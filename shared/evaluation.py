@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from robocog.shared.config_files import load_yaml_model
 from robocog.shared.perturbations import MAX_PERTURBATIONS, Perturbation
@@ -89,11 +89,23 @@ class EvalConfig(BaseModel):
         description="a suite (e.g. robocog-v2.1, the default where `instances` or `families` name no suite): "
         "the instances of its split are the tasks, in file order",
     )
-    split: str = Field(default="dev", description="the suite's split (dev or test)")
+    split: str = Field(
+        default="dev",
+        description="the suite's split (dev or test), or a fresh one generated from a seed no model has seen: "
+        "SPLIT@SEED (test@12345; robocog.shared.seeded_splits)",
+    )
     instances: int | None = Field(
         default=None, ge=1, description="at most this many of the split's instances, spread over the families"
     )
     families: list[str] | None = Field(default=None, min_length=1, description="only these families of the suite")
+
+    @field_validator("split")
+    @classmethod
+    def _split_name(cls, split: str) -> str:
+        from robocog.shared.seeded_splits import parse_split
+
+        parse_split(split)  # a seed out of bounds is refused before anything is generated
+        return split
 
     @model_validator(mode="after")
     def _unique_names(self) -> EvalConfig:
@@ -116,7 +128,7 @@ class EvalConfig(BaseModel):
         from robocog.shared.suite import DEFAULT_SUITE, load_split, select
 
         if self.suite is None:
-            if self.instances is None and self.families is None:
+            if self.instances is None and self.families is None and "@" not in self.split:
                 return self
             self.suite = DEFAULT_SUITE  # instances and families of no suite named: the default suite's
         from robocog.shared.family_files import load_families
@@ -135,9 +147,10 @@ class EvalConfig(BaseModel):
         return self
 
 
-def load_config(path: Path) -> EvalConfig:
-    """Load and validate a study config; errors name the file and the field."""
-    return load_yaml_model(path, EvalConfig)
+def load_config(path: Path, split: str | None = None) -> EvalConfig:
+    """Load and validate a study config (its split `split` when given: `robocog eval --split`); errors
+    name the file and the field."""
+    return load_yaml_model(path, EvalConfig, overrides=None if split is None else {"split": split})
 
 
 class AttemptRow(BaseModel):

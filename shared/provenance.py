@@ -116,6 +116,12 @@ class Provenance(BaseModel):
     system_prompt_sha256: str = Field(description="sha256 of the system prompt's text")
     task_sha256: str | None = Field(description="sha256 of the task's catalogue entry, or of the suite instance")
     suite: str | None = Field(default=None, description="the suite of the instance, when the task is one")
+    split: str | None = Field(default=None, description="the split of the instance (absent from older rows)")
+    split_seed: int | None = Field(
+        default=None,
+        description="the seed the instance's split was generated from on demand (SPLIT@SEED); None: the split "
+        "the suite ships",
+    )
     params: dict[str, Any] = Field(default={}, description="the model's sampling parameters (the study's params)")
     vision: bool = Field(default=False, description="the model was shown pictures")
     physics: str | None = Field(
@@ -160,14 +166,20 @@ def _shipped_tasks() -> dict[str, str]:
     return {tid: sha256_of(spec.model_dump(mode="json")) for tid, spec in load_tasks(ASSETS_DIR / "tasks").items()}
 
 
-def shipped_task_sha256(task: str, suite: str | None = None) -> str | None:
-    """The digest of the shipped task `task` (assets/tasks) or of a shipped suite's instance; None when
-    robocog ships no such task."""
+def shipped_task_sha256(task: str, suite: str | None = None, split: str | None = None) -> str | None:
+    """The digest of the shipped task `task` (assets/tasks) or of a shipped suite's instance (of a
+    fresh split, `split` "SPLIT@SEED": the instance robocog's generator draws from that seed); None
+    when robocog ships no such task."""
     if suite is None:
         return _shipped_tasks().get(task)
-    from robocog.shared.suite import find_instance
+    from robocog.shared.suite import SUITE_NAME, SUITES_DIR, find_instance, load_split
 
     try:
+        if split is not None and "@" in split:
+            if not SUITE_NAME.fullmatch(suite) or not (SUITES_DIR / suite / "suite.yaml").is_file():
+                return None
+            found = [i for i in load_split(str(SUITES_DIR / suite), split) if i.id == task]
+            return sha256_of(found[0].model_dump(mode="json")) if found else None
         return sha256_of(find_instance(suite, task).model_dump(mode="json"))
     except (KeyError, ValueError, FileNotFoundError):
         return None

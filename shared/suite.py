@@ -25,6 +25,15 @@ from robocog.shared.family_files import FAMILIES_DIR, LONG_HORIZON_STEPS, Capabi
 from robocog.shared.perturbations import MAX_PERTURBATIONS, Perturbation
 from robocog.shared.results import Observe
 from robocog.shared.scene_files import generated_scene_names, scene_names
+from robocog.shared.seeded_splits import (
+    MAX_SEED,
+    SUITE_AT,
+    check_generable,
+    generate_missing,
+    parse_split,
+    root_for,
+    split_file,
+)
 from robocog.shared.tasks import Condition, TaskSpec
 
 SUITES_DIR = ASSETS_DIR / "suites"
@@ -264,8 +273,44 @@ def _split(directory: Path, split: str) -> tuple[Instance, ...]:
 
 
 def load_split(suite: str = DEFAULT_SUITE, split: str = "dev") -> list[Instance]:
-    """The instances of one split of a suite, in file order."""
-    return list(_split(suite_dir(suite), split))
+    """The instances of one split of a suite, in file order; a fresh split ("test@12345") from the
+    cache of `robocog.shared.seeded_splits`, generated there first when it is missing."""
+    directory = suite_dir(suite)
+    if "@" in split and not (directory / f"{split}.jsonl").is_file():
+        name, seed = parse_split(split)
+        root = seeded_root(suite, name, seed if seed is not None else 0)  # "@" in split: a seed
+        return list(_split(root / load_suite(suite).name, split))
+    return list(_split(directory, split))
+
+
+def seeded_root(suite: str, split: str, seed: int) -> Path:
+    """The cache root holding the fresh split `split@seed` of `suite` (a name or a directory), generated
+    first when it is missing (`robocog.shared.seeded_splits`)."""
+    manifest = load_suite(suite)
+    if split not in manifest.splits:
+        raise ConfigError(f"suite {manifest.name} has no split {split!r} (its splits: {', '.join(manifest.splits)})")
+    check_generable(manifest.splits[split].per_family, f"suite {manifest.name}: split {split}")
+    root = root_for(suite_dir(suite))
+    if not split_file(root, manifest.name, split, seed).is_file():
+        generate_missing(suite, split, seed, root)
+    return root
+
+
+def find_seeded_instance(root: Path | None, suite: str, instance_id: str) -> tuple[Instance, bool]:
+    """The instance `instance_id` of a fresh split (`suite` is "SUITE@SEED") under the cache root `root`
+    the server was given (--splits), and whether look_around describes objects in that suite; a
+    ValueError (bad input) when there is no root or no such instance."""
+    match = SUITE_AT.fullmatch(suite)
+    if match is None or int(match[2]) > MAX_SEED:
+        raise ValueError(f"suite {suite[:80]!r}: a fresh split's suite is SUITE@SEED (SEED 0 to {MAX_SEED})")
+    if root is None:
+        raise ValueError(f"suite {suite!r} names a fresh split, and this server was started without --splits")
+    directory = root / match[1]
+    for path in sorted(directory.glob(f"*@{match[2]}.jsonl")):
+        for instance in _split(directory, path.stem):
+            if instance.id == instance_id:
+                return instance, load_yaml_model(directory / "suite.yaml", Suite).describes_objects
+    raise ValueError(f"no fresh split of {suite!r} under --splits holds an instance {instance_id!r}")
 
 
 @cache

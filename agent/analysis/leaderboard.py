@@ -79,10 +79,20 @@ class Entry:
     #: Attempts replayed in the physics (`robocog submit verify`), of those there are to replay.
     replayed: int = 0
     replayable: int = 0
+    #: What the rows ran on (`Split`): the suite, its split, and the seed of a fresh split (None: shipped).
+    split: Split = (None, None, None)
 
     @property
     def name(self) -> str:
-        return f"{self.model} ({self.protocol})"
+        seed = self.split[2]
+        return f"{self.model} ({self.protocol})" if seed is None else f"{self.model} ({self.protocol}, seed {seed})"
+
+    @property
+    def split_shown(self) -> str:
+        """The split as the page shows it: "robocog-v2.1 / test@12345" for a fresh split, "shipped" for
+        rows of the shipped splits and tasks (pooled as they always were)."""
+        suite, split, seed = self.split
+        return "shipped" if seed is None else f"{suite} / {split}@{seed}"
 
 
 @dataclass(frozen=True)
@@ -94,6 +104,11 @@ class Board:
     ks: tuple[int, ...]
     warnings: tuple[str, ...] = field(default=())
 
+    @property
+    def fresh(self) -> bool:
+        """Whether an entry ran on a fresh split: the board then shows a split column."""
+        return any(e.split[2] is not None for e in self.entries)
+
 
 def _mean(values: list[float]) -> float | None:
     return sum(values) / len(values) if values else None
@@ -101,6 +116,21 @@ def _mean(values: list[float]) -> float | None:
 
 #: A row, where it came from, whether its trace is present and how its replay went (None: not replayed).
 Pair = tuple[str, AttemptRow, bool, str | None]
+#: A fresh split's suite, split and seed, the leaderboard's groups; (None, None, None) for the rows of
+#: the splits and tasks robocog ships, which pool as they always did.
+Split = tuple[str | None, str | None, int | None]
+
+
+def _splits(rows: Sequence[AttemptRow]) -> list[Split]:
+    """Each row's `Split`, from its provenance; an instance's earlier task (whose provenance names no
+    split) takes its instance's."""
+
+    def own(r: AttemptRow) -> Split:
+        p = r.provenance
+        return (None, None, None) if p is None or p.split_seed is None else (p.suite, p.split, p.split_seed)
+
+    of_instance = {r.instance: own(r) for r in rows if r.instance and r.earlier is None}
+    return [of_instance.get(r.instance or "", own(r)) if r.earlier is not None else own(r) for r in rows]
 
 
 def _replay_problems(pairs: Sequence[Pair]) -> tuple[list[str], int, int]:
@@ -114,7 +144,7 @@ def _replay_problems(pairs: Sequence[Pair]) -> tuple[list[str], int, int]:
     return problems, sum(s in ("matches", "differs") for s in due), len(due)
 
 
-def entry(model: str, protocol: str, pairs: list[Pair]) -> Entry:
+def entry(model: str, protocol: str, pairs: list[Pair], split: Split = (None, None, None)) -> Entry:
     """The entry of `model` under `protocol` from its (study, row, trace present, replay) tuples:
     verified when its rows ran on what robocog ships, their traces are present, and every attempt's
     replay gave its verdict."""
@@ -141,31 +171,37 @@ def entry(model: str, protocol: str, pairs: list[Pair]) -> Entry:
         verification=Verification(shipped.problems + tuple(replay_problems)),
         replayed=replayed,
         replayable=replayable,
+        split=split,
     )
 
 
-def _attempt_key(r: AttemptRow) -> tuple[object, ...]:
-    return (r.study, r.model, r.protocol, r.seed, r.trial, r.memory_iteration, r.task)
+def _attempt_key(r: AttemptRow, split: Split) -> tuple[object, ...]:
+    # the same ids on two fresh splits are two attempts (an earlier task's split is its instance's)
+    return (r.study, r.model, r.protocol, r.seed, r.trial, r.memory_iteration, r.task, split)
 
 
 def board(studies: Sequence[Study]) -> Board:
-    """The leaderboard of `studies`: entries by success (highest first), then by name. A ValueError
+    """The leaderboard of `studies`: one entry per model and protocol, and per fresh split (suite, split
+    and seed: `Split`; two seeds never pool, nor a fresh split with the shipped ones), grouped by split
+    in the order the studies first show it, then by success (highest first), then by name. A ValueError
     when two studies hold the same attempts (a study given twice, as results and as a submission)."""
     seen: dict[tuple[object, ...], str] = {}
     for s in studies:
-        for key in dict.fromkeys(_attempt_key(r) for r in s.rows):
+        for key in dict.fromkeys(_attempt_key(r, split) for r, split in zip(s.rows, _splits(s.rows), strict=True)):
             if key in seen:
                 raise ValueError(f"{seen[key]} and {s.name} hold the same attempts (study {key[0]!r}): give each once")
             seen[key] = s.name
-    grouped: dict[tuple[str, str], list[Pair]] = defaultdict(list)
+    grouped: dict[tuple[str, str, Split], list[Pair]] = defaultdict(list)
     warnings = []
     for s in studies:
         replays = s.replayed or (None,) * len(s.rows)
-        for r, t, replay in zip(s.rows, s.traced, replays, strict=True):
-            grouped[(r.model, r.protocol)].append((s.name, r, t, replay))
+        for r, t, replay, split in zip(s.rows, s.traced, replays, _splits(s.rows), strict=True):
+            grouped[(r.model, r.protocol, split)].append((s.name, r, t, replay))
         warnings += [f"{s.name}: {line}" for line in disagreements(s.rows)]
+    order = {split: i for i, split in enumerate(dict.fromkeys(split for _, _, split in grouped))}
     entries = sorted(
-        (entry(m, p, pairs) for (m, p), pairs in grouped.items()), key=lambda e: (-e.overall.success, e.name)
+        (entry(m, p, pairs, split) for (m, p, split), pairs in grouped.items()),
+        key=lambda e: (order[e.split], -e.overall.success, e.name),
     )
     families = tuple(dict.fromkeys(f for e in entries for f in e.families))
     capabilities = tuple(sorted({c for e in entries for c in e.capabilities}))
@@ -206,6 +242,7 @@ def shown(e: Entry, b: Board) -> dict[str, Any]:
         "tokens_per_attempt": "n/a" if e.tokens_per_attempt is None else f"{e.tokens_per_attempt:.0f}",
         "cost_per_attempt": "n/a" if e.cost_per_attempt is None else f"${e.cost_per_attempt:.4f}",
         "replayed": f"{e.replayed} of {e.replayable} replayed",
+        "split": e.split_shown,
     }
 
 
@@ -233,6 +270,9 @@ def entry_json(e: Entry, b: Board | None = None) -> dict[str, Any]:
         "cost_known": e.cost_known,
         "replayed": e.replayed,
         "replayable": e.replayable,
+        "suite": e.split[0],
+        "split": e.split[1],
+        "seed": e.split[2],
     }
     if b is not None:
         out["shown"] = shown(e, b)
@@ -247,6 +287,7 @@ def board_json(b: Board) -> dict[str, Any]:
         "families": list(b.families),
         "capabilities": list(b.capabilities),
         "ks": list(b.ks),
+        "fresh_splits": b.fresh,
         "warnings": list(b.warnings),
         "entries": [entry_json(e, b) for e in b.entries],
     }
@@ -258,14 +299,16 @@ def _with_ci(value: str, ci: str) -> str:
 
 def board_markdown(b: Board) -> str:
     """The leaderboard as a markdown table (leaderboard.md), its numbers those of the page (`shown`)."""
-    header = ["#", "model", "protocol", "verified", "attempts", "success [95% CI]", "false success"]
+    header = ["#", "model", "protocol", *(["split"] if b.fresh else []), "verified", "attempts"]
+    header += ["success [95% CI]", "false success"]
     header += [f"pass^{k}" for k in b.ks] + list(b.families) + [f"cap. {c}" for c in b.capabilities]
     header += ["tokens / attempt", "cost / attempt"]
     lines = []
     for i, e in enumerate(b.entries, 1):
         t = shown(e, b)
         mark = f"{'yes' if e.verification.verified else 'no'} ({t['replayed']})"
-        line = [str(i), cell(e.model), e.protocol, mark, str(e.overall.attempts)]
+        line = [str(i), cell(e.model), e.protocol, *([cell(t["split"])] if b.fresh else []), mark]
+        line += [str(e.overall.attempts)]
         line += [_with_ci(t["success"], t["success_ci"]), _with_ci(t["false_success"], t["false_success_ci"])]
         line += [_with_ci(t["pass_k"][str(k)], t["pass_k_ci"][str(k)]) for k in b.ks]
         line += [t["families"][f] for f in b.families] + [t["capabilities"][c] for c in b.capabilities]

@@ -102,7 +102,8 @@ def row_problems(row: AttemptRow) -> list[str]:
         out.append("tools differ from the shipped contract's")
     if shipped_prompt_sha256(p.system_prompt) != p.system_prompt_sha256:
         out.append(f"system prompt {p.system_prompt} differs from the shipped one")
-    if shipped_task_sha256(row.task, p.suite) != p.task_sha256:
+    fresh = None if p.split_seed is None else f"{p.split}@{p.split_seed}"
+    if shipped_task_sha256(row.task, p.suite, fresh) != p.task_sha256:
         out.append(f"task {row.task} differs from the shipped one")
     return out
 

@@ -56,6 +56,17 @@ def _suite_and_split(rows: Sequence[AttemptRow], local: Sequence[Path] = ()) -> 
         return None, None
     named = {r.provenance.suite for r in rows if r.provenance and r.provenance.suite}
     suite = next(iter(named)) if len(named) == 1 else DEFAULT_SUITE
+    fresh = {f"{p.split}@{p.split_seed}" for r in rows if (p := r.provenance) and p.split_seed is not None}
+    if fresh:  # a fresh split, generated from a seed: the rows say which
+        if len(fresh) > 1 or any(
+            r.provenance is None or r.provenance.split_seed is None for r in rows if r.instance and r.earlier is None
+        ):
+            raise ValueError("the rows' instances are not all of one fresh split")
+        split = next(iter(fresh))
+        directory = split_directory(suite, split, local)
+        if not instances <= {i.id for i in load_split(str(directory), split)}:
+            raise ValueError(f"the rows' instances are not all of {suite} / {split}")
+        return suite, split
     directory = suite_directory(suite, local)
     for path in sorted(directory.glob("*.jsonl")):
         if instances <= {i.id for i in load_split(str(directory), path.stem)}:
@@ -168,10 +179,14 @@ def _coverage(data: dict[str, Any], rows: Sequence[AttemptRow], local: Sequence[
         try:
             directory = split_directory(data["suite"], data["split"], local)
             wanted = [i.id for i in load_split(str(directory), data["split"])]
+            fresh = "@" in data["split"] or any(r.provenance and r.provenance.split_seed is not None for r in rows)
+            derived = _suite_and_split(rows, local) if fresh else (data["suite"], data["split"])
         except Refused as exc:
             return [str(exc)]
         except (OSError, ValueError) as exc:
             return [f"suite {data['suite']} / split {data['split']}: {' '.join(str(exc).split())}"]
+        if derived != (data["suite"], data["split"]):  # a fresh split's seed is the rows' own
+            return [f"it declares {data['suite']} / {data['split']}, but its rows ran on {derived[0]} / {derived[1]}"]
         where = f"{data['suite']}/{data['split']}"
     else:
         wanted = list(data.get("tasks") or [])[:1]
@@ -287,4 +302,7 @@ def load_study(path: Path, local: Sequence[Path] = ()) -> Study:
     """A results file (`.jsonl`) or a submission (`.json`, validated first; its suite shipped or one of
     the suite directories `local`), with its replay record (`robocog submit verify`) if one lies beside it."""
     study = read_submission(path, local).study(path.name) if path.suffix == ".json" else results_study(path)
+    fresh = {(p.suite, p.split, p.split_seed) for r in study.rows if (p := r.provenance) and p.split_seed is not None}
+    if len(fresh) > 1:  # each would be generated to check its rows: a study runs on one split
+        raise ValueError(f"{path}: its rows ran on {len(fresh)} fresh splits; a study runs on one")
     return replace(study, replayed=statuses(path, len(study.rows)))

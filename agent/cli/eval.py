@@ -47,6 +47,12 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     ev.add_argument("--server-cmd", help="command line that starts a server over stdio (default: robocog-server)")
     ev.add_argument("--protocol", choices=["robocog", "paper"], help="override the config's protocol")
     ev.add_argument(
+        "--split",
+        metavar="SPLIT[@SEED]",
+        help="override the config's split; SPLIT@SEED (test@12345) generates a fresh split from SEED (0 to "
+        "2147483647), cached, and runs on it",
+    )
+    ev.add_argument(
         "--allow-errors",
         action="store_true",
         help="exit 0 even when attempts errored (a model service or server failure; --resume reruns them)",
@@ -78,6 +84,18 @@ def preflight_study(config: EvalConfig, out: Path, *, resume: bool) -> None:
         check_credentials(spec.model, spec.api_base, resolve_api_key(spec))
 
 
+def _with_splits(config: EvalConfig) -> EvalConfig:
+    """A study of a fresh split ("test@12345"): its servers told where its instances are (--splits)."""
+    from robocog.shared.seeded_splits import parse_split
+    from robocog.shared.suite import seeded_root
+
+    split, seed = parse_split(config.split)
+    if config.suite is None or seed is None:
+        return config
+    root = seeded_root(config.suite, split, seed)
+    return config.model_copy(update={"server_args": [*config.server_args, "--splits", str(root)]})
+
+
 def main(args: argparse.Namespace) -> int:
     """Run `robocog eval CONFIG`; returns the exit code."""
     import shlex
@@ -95,7 +113,7 @@ def main(args: argparse.Namespace) -> int:
             print("robocog: --ray needs Ray: pip install 'robocog[ray]'", file=sys.stderr)
             return 2
     try:
-        config = load_config(args.config)
+        config = load_config(args.config, split=getattr(args, "split", None))  # the split given, not the file's
     except ConfigError as exc:
         print(f"robocog: {exc}", file=sys.stderr)
         return 2
@@ -112,9 +130,19 @@ def main(args: argparse.Namespace) -> int:
         config = EvalConfig.model_validate({**config.model_dump(), **updates})
     except ValidationError as exc:
         problem = exc.errors()[0]
-        flag = "--" + str(problem["loc"][0]).replace("_", "-")
-        print(f"robocog: {flag}: {problem['msg']}", file=sys.stderr)
+        flag = "--" + str(problem["loc"][0]).replace("_", "-") if problem["loc"] else "robocog"
+        message = str(problem["msg"]).removeprefix("Value error, ")
+        print(f"robocog: {flag}: {message}" if problem["loc"] else f"robocog: {message}", file=sys.stderr)
         return 2
+    except ConfigError as exc:  # a fresh split that cannot be generated
+        print(f"robocog: {exc}", file=sys.stderr)
+        return 2
+    config = _with_splits(config)
+    if args.url and "--splits" in config.server_args:  # servers this study does not start
+        root = config.server_args[config.server_args.index("--splits") + 1]
+        print(
+            f"robocog: the fleet servers at --url read the fresh split if started with --splits {root}", file=sys.stderr
+        )
     if config.suite is None:  # the paper's tasks: each must be in the catalogue, before any server starts
         from robocog.agent.cli.preflight import unknown_task_id
 

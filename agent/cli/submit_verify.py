@@ -12,6 +12,7 @@ import argparse
 import asyncio
 import sys
 import time
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -67,6 +68,22 @@ def _load(path: Path, local: list[Path]) -> tuple[tuple[Any, ...], list[Any]]:
     return submission.rows, _traces(carried, path)
 
 
+def _splits_root(rows: Sequence[Any], local: list[Path]) -> Path | None:
+    """The cache root of the fresh split the rows ran on (regenerated from its seed when missing), for
+    the replay's server (`--splits`); None when they ran on a shipped split."""
+    from robocog.agent.analysis.untrusted import split_directory
+    from robocog.shared.suite import seeded_root
+
+    fresh = {(p.suite, p.split, p.split_seed) for r in rows if (p := r.provenance) and p.split_seed is not None}
+    if not fresh:
+        return None
+    if len(fresh) > 1:
+        raise ValueError("the rows are of more than one fresh split: verify one at a time")
+    suite, split, seed = next(iter(fresh))
+    directory = split_directory(suite, f"{split}@{seed}", local)
+    return seeded_root(str(directory), str(split), int(seed))
+
+
 def _shown(value: Any) -> str:
     return str(value) if not isinstance(value, dict) else ", ".join(f"{k} {v}" for k, v in value.items()) or "none"
 
@@ -82,6 +99,7 @@ def main(args: argparse.Namespace) -> int:
     path: Path = args.submission
     try:
         rows, traces = _load(path, args.suite_dir)
+        splits = _splits_root(rows, args.suite_dir)
     except (OSError, ValueError) as exc:
         problem = " ".join(str(exc).split())
         print(f"robocog: {problem if problem.startswith(str(path)) else f'{path}: {problem}'}", file=sys.stderr)
@@ -90,7 +108,10 @@ def main(args: argparse.Namespace) -> int:
 
     started = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="robocog-verify-") as scratch:
-        spec = ServerSpec(extra_args=["--profile", "eval", *memory_args([], Path(scratch) / "memory")], lean=True)
+        server_args = [] if splits is None else ["--splits", str(splits)]
+        spec = ServerSpec(
+            extra_args=["--profile", "eval", *memory_args(server_args, Path(scratch) / "memory")], lean=True
+        )
         if args.server_cmd:
             import shlex
 

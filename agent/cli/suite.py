@@ -54,7 +54,14 @@ def main(args: argparse.Namespace) -> int:
         if args.workers < 1:
             raise ConfigError(f"--workers: must be at least 1, not {args.workers}")
         text = dump_instances(
-            generate(suite, args.split, seed=args.seed, per_family=args.per_family, workers=args.workers)
+            generate(
+                suite,
+                args.split,
+                seed=args.seed,
+                per_family=args.per_family,
+                workers=args.workers,
+                directory=suite_dir(args.suite),
+            )
         )
         if args.out is None:
             sys.stdout.write(text)

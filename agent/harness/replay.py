@@ -4,7 +4,8 @@ again in a fresh world on a real server, and its verdict recomputed from the phy
 The rows are replayed unit by unit (a model and a trial, in file order), as `robocog eval` ran them:
 each memory iteration resets the world with the row's seed and the unit's memory namespace (cleared
 at iteration 0), a suite instance's world is set up from its instance (the shipped suite the row's
-provenance names: its scene, start, perturbations), its earlier tasks replayed before it, and each
+provenance names, or the fresh split its seed regenerates: its scene, start, perturbations), its
+earlier tasks replayed before it, and each
 task begins its own episode. Each tool call the attempt's trace records is sent to the server with
 its recorded arguments (a call the client rejected without the server, bad JSON or a tool not
 offered, keeps its recorded result); the new results and perturbations take the place of the
@@ -144,6 +145,18 @@ def _believed(events: Sequence[TraceEvent]) -> bool | None:
     return believed
 
 
+def _suites(rows: Sequence[AttemptRow]) -> dict[str, str]:
+    """The suite each instance is set up from, as reset_world names it (a fresh split's is SUITE@SEED,
+    the server's --splits holding it), read off the instance's own rows: an earlier task's provenance
+    names no suite."""
+    out: dict[str, str] = {}
+    for r in rows:
+        p = r.provenance
+        if r.instance and r.earlier is None and p is not None and p.suite:
+            out[r.instance] = p.suite if p.split_seed is None else f"{p.suite}@{p.split_seed}"
+    return out
+
+
 def _units(rows: Sequence[AttemptRow]) -> dict[tuple[str, str, int], list[int]]:
     units: dict[tuple[str, str, int], list[int]] = {}
     for i, r in enumerate(rows):
@@ -165,6 +178,7 @@ class Replayer:
         iteration: int | None = None
         reset: dict[str, Any] = {}
         set_up: set[str] = set()
+        suites = _suites([rows[i] for i in indices])
         for i in indices:
             r = rows[i]
             protocol = PROTOCOLS[r.protocol]
@@ -189,7 +203,7 @@ class Replayer:
                 continue
             started = time.perf_counter()
             if r.instance and r.instance not in set_up:
-                suite = r.provenance.suite if r.provenance else None
+                suite = suites.get(r.instance, r.provenance.suite if r.provenance else None)
                 await self.controls.reset_world(instance=r.instance, suite=suite, **reset)
                 set_up.add(r.instance)
             episode = episode_id(f"replay-{r.study}", r.model, r.seed, r.trial, iteration, r.task)

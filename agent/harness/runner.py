@@ -371,6 +371,8 @@ class Runner:
             system_prompt_sha256=text_sha256(system_prompt),
             task_sha256=None if task is None else sha256_of(task),
             suite=self.suite.suite if task_id in self.suite.instances else None,
+            split=self.suite.split if task_id in self.suite.instances else None,
+            split_seed=self.suite.split_seed if task_id in self.suite.instances else None,
             params=dict(spec.params),
             vision=vision,
             physics=robot.physics,

@@ -12,7 +12,8 @@ from robocog.agent.analysis.honesty import reasoned
 from robocog.shared.controls import EvalControls
 from robocog.shared.evaluation import AttemptRow, EvalConfig
 from robocog.shared.provenance import sha256_of
-from robocog.shared.suite import Instance, load_split
+from robocog.shared.seeded_splits import parse_split
+from robocog.shared.suite import Instance, load_split, load_suite
 from robocog.shared.trace import TraceEvent
 
 
@@ -23,6 +24,9 @@ class SuiteRun:
 
     suite: str | None
     instances: dict[str, Instance]
+    #: The split's name, and the seed a fresh split was generated from (None: the split shipped).
+    split: str | None = None
+    split_seed: int | None = None
 
     @classmethod
     def of(cls, config: EvalConfig) -> SuiteRun:
@@ -30,7 +34,14 @@ class SuiteRun:
             return cls(None, {})
         wanted = set(config.tasks)
         chosen = {i.id: i for i in load_split(config.suite, config.split) if i.id in wanted}
-        return cls(config.suite, chosen)
+        split, seed = parse_split(config.split)
+        suite = config.suite if seed is None else load_suite(config.suite).name  # its cache is by name
+        return cls(suite, chosen, split, seed)
+
+    @property
+    def server_suite(self) -> str | None:
+        """The suite as reset_world names it: a fresh split's is SUITE@SEED (the server's --splits)."""
+        return self.suite if self.split_seed is None else f"{self.suite}@{self.split_seed}"
 
     def prompt(self, task_id: str) -> str | None:
         """The prompt of an instance (`ID`) or of one of its earlier tasks (`ID-preN`)."""
@@ -89,7 +100,7 @@ class SuiteRun:
         if instance is None:
             return None
         conversation.clear()
-        await controls.reset_world(instance=instance.id, suite=self.suite, **reset)
+        await controls.reset_world(instance=instance.id, suite=self.server_suite, **reset)
         for pre in instance.prelude_tasks():
             await begin(pre.id)
             row = await attempt(pre.id)
@@ -117,7 +128,9 @@ class SuiteRun:
         provenance = row.provenance
         if provenance is not None:
             digest = sha256_of(self.spec(task_id))
-            provenance = provenance.model_copy(update={"task_sha256": digest, "suite": self.suite})
+            provenance = provenance.model_copy(
+                update={"task_sha256": digest, "suite": self.suite, "split": self.split, "split_seed": self.split_seed}
+            )
         nothing = {
             "outcome": "not_run",
             "invocations": 0,

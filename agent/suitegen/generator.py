@@ -23,6 +23,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import random
+from pathlib import Path
 
 from robocog.agent.families import draw_function, load_families
 from robocog.agent.symbolic.plans import optimal_plan, solved, steps_after
@@ -205,17 +206,32 @@ def _standing_at(world: SceneNames, name: str) -> str | None:
 
 
 def generate(
-    suite: Suite, split: str, *, seed: int | None = None, per_family: int | None = None, workers: int = 1
+    suite: Suite,
+    split: str,
+    *,
+    seed: int | None = None,
+    per_family: int | None = None,
+    workers: int = 1,
+    directory: Path | None = None,
 ) -> list[Instance]:
     """The instances of `split` of `suite` (its seed and size from the manifest unless given), family
-    by family in the manifest's order. Each family's instances depend on nothing but the suite, the
-    split, the seed and the family, so `workers` processes may draw the families side by side and the
-    bytes are the same."""
+    by family in the manifest's order (its family files beside it in `directory`, default: the shipped
+    suite of its name). Each family's instances depend on nothing but the suite, the split, the seed
+    and the family, so `workers` processes may draw the families side by side and the bytes are the
+    same."""
     if split not in suite.splits:
         raise ConfigError(f"suite {suite.name!r} has no split {split!r} (splits: {', '.join(suite.splits)})")
     spec = suite.splits[split]
+    families = families_dir(suite.name if directory is None else str(directory), suite)
     jobs = [
-        (suite, split, spec.seed if seed is None else seed, spec.per_family if per_family is None else per_family, f)
+        (
+            suite,
+            split,
+            spec.seed if seed is None else seed,
+            spec.per_family if per_family is None else per_family,
+            f,
+            families,
+        )
         for f in suite.families
     ]
     if workers <= 1 or len(jobs) == 1:
@@ -227,9 +243,12 @@ def generate(
         return [i for part in pool.map(_family_instances, *zip(*jobs, strict=True)) for i in part]
 
 
-def _family_instances(suite: Suite, split: str, seed: int, count: int, family_id: str) -> list[Instance]:
-    """The `count` instances of one family in `split` (a repeat of an earlier one is drawn again)."""
-    family = load_families(families_dir(suite.name, suite))[family_id]
+def _family_instances(
+    suite: Suite, split: str, seed: int, count: int, family_id: str, families: Path
+) -> list[Instance]:
+    """The `count` instances of one family (its file in `families`) in `split` (a repeat of an earlier
+    one is drawn again)."""
+    family = load_families(families)[family_id]
     worlds = _worlds(tuple(suite.scene_names()))
     out: list[Instance] = []
     seen: set[tuple[str, str, str]] = set()

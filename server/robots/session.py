@@ -27,7 +27,7 @@ from robocog.server.world.world import ActionLimit, World
 from robocog.shared.perturbations import Perturbation, PerturbationEvent
 from robocog.shared.results import ObjectPlacement, WorldState
 from robocog.shared.scene_files import scene_path
-from robocog.shared.suite import Instance, describes_objects, find_instance
+from robocog.shared.suite import Instance, describes_objects, find_instance, find_seeded_instance
 from robocog.shared.tasks import TaskSpec
 
 R = TypeVar("R", bound=BaseModel)
@@ -294,7 +294,10 @@ class RobotSession:
         what the instance says (`observing`) while it lasts;
         its task and earlier tasks (ids ID-pre1, ...) join the catalogue; a new episode begins. A
         ValueError (bad input) names an unknown suite or instance, or a start the scene cannot take."""
-        instance = find_instance(suite, instance_id)
+        if "@" in suite:  # a fresh split, generated from a seed into the root the server was given
+            instance, describing = find_seeded_instance(self.config.splits, suite, instance_id)
+        else:
+            instance, describing = find_instance(suite, instance_id), describes_objects(suite)
         name = instance.scene
         if name not in self._worlds:
             for other in [n for n in self._worlds if n != self._home_scene]:  # one guest world at a time (~45 MB)
@@ -322,7 +325,7 @@ class RobotSession:
         for task in (instance.task(), *instance.prelude_tasks()):
             self.tasks[task.id] = task
         self.instance = instance
-        self.describing = describes_objects(suite)
+        self.describing = describing
         self.start_episode()
         return self.world.state()
 
