@@ -12,17 +12,18 @@ import shutil
 import sys
 import tempfile
 from collections.abc import AsyncIterator
-from contextlib import asynccontextmanager
+from contextlib import AbstractAsyncContextManager, asynccontextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any, TextIO, cast
 
 from mcp import Client
+from mcp.client import Transport
 from mcp.client.stdio import StdioServerParameters
 from mcp.shared.exceptions import MCPError
 from mcp_types import CONNECTION_CLOSED, Tool
 
-from robocog.agent.client.lean import McpClient
+from robocog.agent.client.protocols import Channel, McpClient
 from robocog.shared import __version__
 from robocog.shared.errors import ServerConnectionError
 from robocog.shared.protocol import CONTRACT_VERSION_PATTERN, FLEET_FULL
@@ -152,8 +153,8 @@ def leaf_message(exc: BaseException) -> str:
 
 def unreachable(exc: BaseException) -> bool:
     """Whether `exc` is a request's failure because its server could not be reached: `CONNECTION_CLOSED`,
-    as the SDK's session raises when its connection closes and `json_http` when a POST cannot reach
-    the server."""
+    as the SDK's session raises when its connection closes and `http_channel` when a POST cannot
+    reach the server."""
     return isinstance(exc, MCPError) and exc.error.code == CONNECTION_CLOSED
 
 
@@ -161,15 +162,19 @@ def unreachable(exc: BaseException) -> bool:
 async def connect(spec: ServerSpec) -> AsyncIterator[Robot]:
     """Connect, list the tools, fetch the system prompt and the task catalogue.
 
+    A server the user names (`--url`, `--server-cmd`) is reached through the official SDK's `Client`;
+    a server the study started itself (`spec.lean`: a worker's `robocog-server` over stdio, a fleet
+    answering in JSON over plain HTTP) through robocog's lean client (`lean`).
+
     A spawned server's stderr goes to a log file, so its start-up chatter stays off the terminal;
     if the server fails, the error quotes the end of that log.
     """
     log: ServerLog | None = None
-    session: Any
+    session: AbstractAsyncContextManager[Robot]
     if spec.lean and spec.url and spec.url.lower().startswith("http://"):
-        from robocog.agent.client.json_http import json_http_channel
+        from robocog.agent.client.http_channel import http_channel
 
-        session = _lean_session(json_http_channel(spec.url, spec.auth_token, keepalive_s=CLIENT_KEEP_ALIVE_S), spec)
+        session = _lean_session(http_channel(spec.url, spec.auth_token, keepalive_s=CLIENT_KEEP_ALIVE_S), spec)
     elif spec.url:
         session = _session(_http_transport(spec.url, spec.auth_token), spec)
     elif spec.lean and os.name == "posix":  # a process group of its own to end (see `lean.stdio_channel`)
@@ -201,13 +206,20 @@ async def connect(spec: ServerSpec) -> AsyncIterator[Robot]:
 
 @asynccontextmanager
 async def _http_transport(url: str, token: str | None) -> AsyncIterator[Any]:
-    """The streamable HTTP transport to `url`, sending the bearer token when there is one."""
+    """The SDK's streamable HTTP transport to `url` as it comes, sending the bearer token when there is one.
+
+    The SDK reads a request's answer from the POST's event stream and closes the response as soon as
+    the answer's event has arrived (`mcp/client/streamable_http.py`, `_handle_sse_response`), before
+    the bytes that end the stream; httpx reuses a connection only when its exchange is done, so over
+    event streams every call opens a connection of its own. robocog once read each stream to its end
+    to keep the connection (and sent the bytes through aiohttp). It no longer matters: a server a user
+    names takes the SDK as it is (a connection a call costs a call about a millisecond on loopback),
+    and the fleets a study starts answer in JSON, through the lean client's channel (`http_channel`).
+    """
     import httpx2  # the MCP SDK's HTTP client
     from mcp.client.streamable_http import streamable_http_client
 
-    from robocog.agent.client.aiohttp_transport import transport_for
-    from robocog.agent.client.json_http import refused_sentence
-    from robocog.agent.client.keepalive import KeepAliveTransport
+    from robocog.agent.client.http_channel import CONNECT_TIMEOUT_S, READ_TIMEOUT_S, refused_sentence
 
     headers = {"Authorization": f"Bearer {token}"} if token else {}
 
@@ -215,24 +227,20 @@ async def _http_transport(url: str, token: str | None) -> AsyncIterator[Any]:
         if response.status_code == 401:
             raise ServerConnectionError(refused_sentence(url, token))
 
-    # The SDK's own timeouts: a response stream may stay open for minutes.
-    timeout = httpx2.Timeout(30.0, read=300.0)
-    # One client and one pooled connection for the whole attempt: each answer read to its end (see
-    # keepalive), kept through the model's turns (httpx's 5 s default dropped it between most calls),
-    # and dropped before the server would close it. Over plain HTTP, aiohttp sends the bytes: its parser
-    # is compiled, httpcore's is Python (see aiohttp_transport).
+    # The SDK's own timeouts (a response stream may stay open for minutes); an idle connection kept
+    # through the model's turns (httpx's 5 s default dropped it between most calls of JSON answers).
+    timeout = httpx2.Timeout(CONNECT_TIMEOUT_S, read=READ_TIMEOUT_S)
     limits = httpx2.Limits(keepalive_expiry=CLIENT_KEEP_ALIVE_S)
-    transport = KeepAliveTransport(transport_for(url, limits=limits))
     hooks = {"response": [refused]}
     async with (
-        httpx2.AsyncClient(headers=headers, timeout=timeout, transport=transport, event_hooks=hooks) as client,
+        httpx2.AsyncClient(headers=headers, timeout=timeout, limits=limits, event_hooks=hooks) as client,
         streamable_http_client(url, http_client=client) as streams,
     ):
         yield streams
 
 
 @asynccontextmanager
-async def _session(target: Any, spec: ServerSpec) -> AsyncIterator[Robot]:
+async def _session(target: Transport, spec: ServerSpec) -> AsyncIterator[Robot]:
     """The robot over the SDK's `Client` on `target` (a transport)."""
     from mcp_types import Implementation
 
@@ -248,7 +256,7 @@ async def _session(target: Any, spec: ServerSpec) -> AsyncIterator[Robot]:
 
 
 @asynccontextmanager
-async def _lean_session(channel: Any, spec: ServerSpec) -> AsyncIterator[Robot]:
+async def _lean_session(channel: AbstractAsyncContextManager[Channel], spec: ServerSpec) -> AsyncIterator[Robot]:
     """The robot over robocog's lean client on `channel` (an async context manager that opens it),
     with the initialize handshake (protocol 2025-11-25: see `lean`)."""
     from mcp_types import Implementation
@@ -261,7 +269,7 @@ async def _lean_session(channel: Any, spec: ServerSpec) -> AsyncIterator[Robot]:
         yield await _robot(client, tools, spec)
 
 
-async def _robot(client: Any, tools: list[Tool], spec: ServerSpec) -> Robot:
+async def _robot(client: McpClient, tools: list[Tool], spec: ServerSpec) -> Robot:
     """What the run needs from the server behind `client`: the system prompt, the task catalogue, the
     contract version and the physics build its instructions announce."""
     prompt = await client.get_prompt("robot_system")
