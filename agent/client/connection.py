@@ -213,13 +213,14 @@ async def _http_transport(url: str, token: str | None) -> AsyncIterator[Any]:
     the bytes that end the stream; httpx reuses a connection only when its exchange is done, so over
     event streams every call opens a connection of its own. robocog once read each stream to its end
     to keep the connection (and sent the bytes through aiohttp). It no longer matters: a server a user
-    names takes the SDK as it is (a connection a call costs a call about a millisecond on loopback),
-    and the fleets a study starts answer in JSON, through the lean client's channel (`http_channel`).
+    names takes the SDK as it is (a new connection costs a call about a millisecond of CPU on loopback:
+    `make bench --only http`), and the fleets a study starts answer in JSON, which ends each exchange,
+    through the lean client's channel (`http_channel`), whose connection lasts the attempt.
     """
     import httpx2  # the MCP SDK's HTTP client
     from mcp.client.streamable_http import streamable_http_client
 
-    from robocog.agent.client.http_channel import CONNECT_TIMEOUT_S, READ_TIMEOUT_S, refused_sentence
+    from robocog.agent.client.http_channel import CONNECT_TIMEOUT_S, READ_TIMEOUT_S, refused_sentence, tls_context
 
     headers = {"Authorization": f"Bearer {token}"} if token else {}
 
@@ -233,7 +234,9 @@ async def _http_transport(url: str, token: str | None) -> AsyncIterator[Any]:
     limits = httpx2.Limits(keepalive_expiry=CLIENT_KEEP_ALIVE_S)
     hooks = {"response": [refused]}
     async with (
-        httpx2.AsyncClient(headers=headers, timeout=timeout, limits=limits, event_hooks=hooks) as client,
+        httpx2.AsyncClient(
+            headers=headers, timeout=timeout, limits=limits, event_hooks=hooks, verify=tls_context()
+        ) as client,
         streamable_http_client(url, http_client=client) as streams,
     ):
         yield streams
