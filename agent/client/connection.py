@@ -5,10 +5,12 @@ The client never imports `robocog.server`: it speaks MCP to whatever the command
 
 from __future__ import annotations
 
+import functools
 import json
 import os
 import shlex
 import shutil
+import ssl
 import sys
 import tempfile
 from collections.abc import AsyncIterator
@@ -153,7 +155,7 @@ def leaf_message(exc: BaseException) -> str:
 
 def unreachable(exc: BaseException) -> bool:
     """Whether `exc` is a request's failure because its server could not be reached: `CONNECTION_CLOSED`,
-    as the SDK's session raises when its connection closes and `http_channel` when a POST cannot
+    as the SDK's session raises when its connection closes and `json_http` when a POST cannot
     reach the server."""
     return isinstance(exc, MCPError) and exc.error.code == CONNECTION_CLOSED
 
@@ -172,9 +174,10 @@ async def connect(spec: ServerSpec) -> AsyncIterator[Robot]:
     log: ServerLog | None = None
     session: AbstractAsyncContextManager[Robot]
     if spec.lean and spec.url and spec.url.lower().startswith("http://"):
-        from robocog.agent.client.http_channel import http_channel
+        from robocog.agent.client.json_http import json_http_channel
 
-        session = _lean_session(http_channel(spec.url, spec.auth_token, keepalive_s=CLIENT_KEEP_ALIVE_S), spec)
+        channel = json_http_channel(spec.url, spec.auth_token, keepalive_s=CLIENT_KEEP_ALIVE_S)
+        session = _lean_session(channel, spec)
     elif spec.url:
         session = _session(_http_transport(spec.url, spec.auth_token), spec)
     elif spec.lean and os.name == "posix":  # a process group of its own to end (see `lean.stdio_channel`)
@@ -204,6 +207,16 @@ async def connect(spec: ServerSpec) -> AsyncIterator[Robot]:
             log.close()
 
 
+@functools.cache
+def tls_context() -> ssl.SSLContext:
+    """httpx's default TLS context (its CA bundle), made once per process and shared by every client
+    robocog makes: httpx makes one per client otherwise, about 45 ms of CPU at every connection (a
+    study of 64 workers makes 64 at its start). The fleets' channel takes plain HTTP and never uses it."""
+    import httpx2  # the MCP SDK's HTTP client
+
+    return httpx2.create_ssl_context()
+
+
 @asynccontextmanager
 async def _http_transport(url: str, token: str | None) -> AsyncIterator[Any]:
     """The SDK's streamable HTTP transport to `url` as it comes, sending the bearer token when there is one.
@@ -215,12 +228,12 @@ async def _http_transport(url: str, token: str | None) -> AsyncIterator[Any]:
     to keep the connection (and sent the bytes through aiohttp). It no longer matters: a server a user
     names takes the SDK as it is (a new connection costs a call about a millisecond of CPU on loopback:
     `make bench --only http`), and the fleets a study starts answer in JSON, which ends each exchange,
-    through the lean client's channel (`http_channel`), whose connection lasts the attempt.
+    through the lean client's channel (`json_http`), whose connection lasts the attempt.
     """
     import httpx2  # the MCP SDK's HTTP client
     from mcp.client.streamable_http import streamable_http_client
 
-    from robocog.agent.client.http_channel import CONNECT_TIMEOUT_S, READ_TIMEOUT_S, refused_sentence, tls_context
+    from robocog.agent.client.json_http import CONNECT_TIMEOUT_S, READ_TIMEOUT_S, refused_sentence
 
     headers = {"Authorization": f"Bearer {token}"} if token else {}
 

@@ -10,7 +10,7 @@ message model and validates its result twice. Against the server a study spawns 
 `client.stdio.*` figures of `make bench --only client`).
 
 `LeanClient` speaks only to those servers (and to the fleets a study starts, over HTTP with JSON
-answers: `http_channel`), and only what the harness asks of them: the handshake, `tools/list`,
+answers: `json_http`), and only what the harness asks of them: the handshake, `tools/list`,
 `prompts/get`, `resources/read` and `tools/call`. Each request is one JSON line (or one POST) and
 its answer one parse; results are the SDK's own types (`CallToolResult` and the rest), a tool's
 structured content is checked against its output schema as the SDK checks it (`output_schemas`),

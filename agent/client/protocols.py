@@ -4,7 +4,7 @@
 user names, over stdio or streamable HTTP) and robocog's `lean.LeanClient` (the servers a study starts
 itself) both are one, as mypy checks where `connection.connect` builds a `Robot` from either.
 `Channel` is what the lean client asks of the connection under it: `lean.StdioChannel` (a worker's
-server over stdio) and `http_channel.HttpChannel` (a study's fleet over HTTP, with JSON answers).
+server over stdio) and `json_http.JsonHttpLink` (a study's fleet over HTTP, with JSON answers).
 """
 
 from __future__ import annotations

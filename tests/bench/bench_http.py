@@ -13,7 +13,7 @@ A real `robocog-server --transport http` process on a free loopback port:
   httpx's and uvicorn's 5 s;
 - one JSON body per answer: against a server started with `--json-response` (as the harness starts
   its fleets), the same calls' CPU and time through robocog's SDK path and through the lean client's
-  channel a study's fleets use (`agent/client/http_channel.py`, httpx under it), alternating in rounds.
+  channel a study's fleets use (`agent/client/json_http.py`), alternating in rounds.
 """
 
 from __future__ import annotations
@@ -173,11 +173,11 @@ async def _reuse(url: str, pid: int) -> dict[str, object]:
 async def _json_calls(url: str, pid: int) -> dict[str, object]:
     """A `--json-response` server (as the harness starts its fleets): the CPU and time of REUSE_CALLS
     calls through robocog's SDK path and through the lean client a study's fleets use (`lean` over
-    `http_channel`), alternating in rounds, to set beside `_reuse`'s event-stream answers."""
+    `json_http`), alternating in rounds, to set beside `_reuse`'s event-stream answers."""
     from mcp_types import Implementation
 
     from robocog.agent.client.connection import _http_transport
-    from robocog.agent.client.http_channel import http_channel
+    from robocog.agent.client.json_http import json_http_channel
     from robocog.agent.client.lean import LeanClient
     from robocog.agent.client.output_schemas import share_validators
 
@@ -185,7 +185,7 @@ async def _json_calls(url: str, pid: int) -> dict[str, object]:
     info = Implementation(name="robocog", version="bench")
     async with (
         Client(_http_transport(url, None), mode="legacy") as ours,
-        http_channel(url) as channel,
+        json_http_channel(url) as channel,
         LeanClient(channel, client_info=info, name=url) as lean,
     ):
         # as `connect` does: the tools listed, their validators shared

@@ -296,7 +296,7 @@ async def test_a_fleet_in_two_processes_behind_one_address(tmp_path: Path) -> No
 
 
 async def test_the_lean_client_drives_a_json_fleet_as_the_sdk_s_does_and_frees_its_robot(tmp_path: Path) -> None:
-    """robocog's lean client (`lean` over `http_channel`, a study's own fleets) against a real
+    """robocog's lean client (`lean` over `json_http`, a study's own fleets) against a real
     `--json-response` server of one robot: the same answers as the SDK's client, and its session's
     DELETE frees the robot for the next driver at once (a session left open would hold it)."""
     from robocog.agent.client.connection import ServerSpec, connect

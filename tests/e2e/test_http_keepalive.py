@@ -1,5 +1,5 @@
-"""One TCP connection for an attempt on a study's own fleet: the lean client's channel (httpx under
-it) keeps the connection of its first request for every later one, through a model's turn too."""
+"""One TCP connection for an attempt on a study's own fleet: the lean client's channel
+(`json_http`) keeps the connection of its first request for every later one, through a model's turn too."""
 
 from __future__ import annotations
 

