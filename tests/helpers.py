@@ -31,7 +31,7 @@ if TYPE_CHECKING:  # the benches run this file with a previous release's install
     from mcp import Client
 
     from robocog.agent.client.connection import Robot
-    from robocog.agent.client.lean import McpClient
+    from robocog.agent.client.protocols import McpClient
 
 __all__ = ["T1_SEQUENCE", "T2_SEQUENCE", "Action", "action_args"]
 

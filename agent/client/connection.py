@@ -5,24 +5,27 @@ The client never imports `robocog.server`: it speaks MCP to whatever the command
 
 from __future__ import annotations
 
+import functools
 import json
 import os
 import shlex
 import shutil
+import ssl
 import sys
 import tempfile
 from collections.abc import AsyncIterator
-from contextlib import asynccontextmanager
+from contextlib import AbstractAsyncContextManager, asynccontextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any, TextIO, cast
 
 from mcp import Client
+from mcp.client import Transport
 from mcp.client.stdio import StdioServerParameters
 from mcp.shared.exceptions import MCPError
 from mcp_types import CONNECTION_CLOSED, Tool
 
-from robocog.agent.client.lean import McpClient
+from robocog.agent.client.protocols import Channel, McpClient
 from robocog.shared import __version__
 from robocog.shared.errors import ServerConnectionError
 from robocog.shared.protocol import CONTRACT_VERSION_PATTERN, FLEET_FULL
@@ -152,8 +155,8 @@ def leaf_message(exc: BaseException) -> str:
 
 def unreachable(exc: BaseException) -> bool:
     """Whether `exc` is a request's failure because its server could not be reached: `CONNECTION_CLOSED`,
-    as the SDK's session raises when its connection closes and `json_http` when a POST cannot reach
-    the server."""
+    as the SDK's session raises when its connection closes and `json_http` when a POST cannot
+    reach the server."""
     return isinstance(exc, MCPError) and exc.error.code == CONNECTION_CLOSED
 
 
@@ -161,15 +164,20 @@ def unreachable(exc: BaseException) -> bool:
 async def connect(spec: ServerSpec) -> AsyncIterator[Robot]:
     """Connect, list the tools, fetch the system prompt and the task catalogue.
 
+    A server the user names (`--url`, `--server-cmd`) is reached through the official SDK's `Client`;
+    a server the study started itself (`spec.lean`: a worker's `robocog-server` over stdio, a fleet
+    answering in JSON over plain HTTP) through robocog's lean client (`lean`).
+
     A spawned server's stderr goes to a log file, so its start-up chatter stays off the terminal;
     if the server fails, the error quotes the end of that log.
     """
     log: ServerLog | None = None
-    session: Any
+    session: AbstractAsyncContextManager[Robot]
     if spec.lean and spec.url and spec.url.lower().startswith("http://"):
         from robocog.agent.client.json_http import json_http_channel
 
-        session = _lean_session(json_http_channel(spec.url, spec.auth_token, keepalive_s=CLIENT_KEEP_ALIVE_S), spec)
+        channel = json_http_channel(spec.url, spec.auth_token, keepalive_s=CLIENT_KEEP_ALIVE_S)
+        session = _lean_session(channel, spec)
     elif spec.url:
         session = _session(_http_transport(spec.url, spec.auth_token), spec)
     elif spec.lean and os.name == "posix":  # a process group of its own to end (see `lean.stdio_channel`)
@@ -199,15 +207,33 @@ async def connect(spec: ServerSpec) -> AsyncIterator[Robot]:
             log.close()
 
 
+@functools.cache
+def tls_context() -> ssl.SSLContext:
+    """httpx's default TLS context (its CA bundle), made once per process and shared by every client
+    robocog makes: httpx makes one per client otherwise, about 45 ms of CPU at every connection (a
+    study of 64 workers makes 64 at its start). The fleets' channel takes plain HTTP and never uses it."""
+    import httpx2  # the MCP SDK's HTTP client
+
+    return httpx2.create_ssl_context()
+
+
 @asynccontextmanager
 async def _http_transport(url: str, token: str | None) -> AsyncIterator[Any]:
-    """The streamable HTTP transport to `url`, sending the bearer token when there is one."""
+    """The SDK's streamable HTTP transport to `url` as it comes, sending the bearer token when there is one.
+
+    The SDK reads a request's answer from the POST's event stream and closes the response as soon as
+    the answer's event has arrived (`mcp/client/streamable_http.py`, `_handle_sse_response`), before
+    the bytes that end the stream; httpx reuses a connection only when its exchange is done, so over
+    event streams every call opens a connection of its own. robocog once read each stream to its end
+    to keep the connection (and sent the bytes through aiohttp). It no longer matters: a server a user
+    names takes the SDK as it is (a new connection costs a call about a millisecond of CPU on loopback:
+    `make bench --only http`), and the fleets a study starts answer in JSON, which ends each exchange,
+    through the lean client's channel (`json_http`), whose connection lasts the attempt.
+    """
     import httpx2  # the MCP SDK's HTTP client
     from mcp.client.streamable_http import streamable_http_client
 
-    from robocog.agent.client.aiohttp_transport import transport_for
-    from robocog.agent.client.json_http import refused_sentence
-    from robocog.agent.client.keepalive import KeepAliveTransport
+    from robocog.agent.client.json_http import CONNECT_TIMEOUT_S, READ_TIMEOUT_S, refused_sentence
 
     headers = {"Authorization": f"Bearer {token}"} if token else {}
 
@@ -215,24 +241,22 @@ async def _http_transport(url: str, token: str | None) -> AsyncIterator[Any]:
         if response.status_code == 401:
             raise ServerConnectionError(refused_sentence(url, token))
 
-    # The SDK's own timeouts: a response stream may stay open for minutes.
-    timeout = httpx2.Timeout(30.0, read=300.0)
-    # One client and one pooled connection for the whole attempt: each answer read to its end (see
-    # keepalive), kept through the model's turns (httpx's 5 s default dropped it between most calls),
-    # and dropped before the server would close it. Over plain HTTP, aiohttp sends the bytes: its parser
-    # is compiled, httpcore's is Python (see aiohttp_transport).
+    # The SDK's own timeouts (a response stream may stay open for minutes); an idle connection kept
+    # through the model's turns (httpx's 5 s default dropped it between most calls of JSON answers).
+    timeout = httpx2.Timeout(CONNECT_TIMEOUT_S, read=READ_TIMEOUT_S)
     limits = httpx2.Limits(keepalive_expiry=CLIENT_KEEP_ALIVE_S)
-    transport = KeepAliveTransport(transport_for(url, limits=limits))
     hooks = {"response": [refused]}
     async with (
-        httpx2.AsyncClient(headers=headers, timeout=timeout, transport=transport, event_hooks=hooks) as client,
+        httpx2.AsyncClient(
+            headers=headers, timeout=timeout, limits=limits, event_hooks=hooks, verify=tls_context()
+        ) as client,
         streamable_http_client(url, http_client=client) as streams,
     ):
         yield streams
 
 
 @asynccontextmanager
-async def _session(target: Any, spec: ServerSpec) -> AsyncIterator[Robot]:
+async def _session(target: Transport, spec: ServerSpec) -> AsyncIterator[Robot]:
     """The robot over the SDK's `Client` on `target` (a transport)."""
     from mcp_types import Implementation
 
@@ -248,7 +272,7 @@ async def _session(target: Any, spec: ServerSpec) -> AsyncIterator[Robot]:
 
 
 @asynccontextmanager
-async def _lean_session(channel: Any, spec: ServerSpec) -> AsyncIterator[Robot]:
+async def _lean_session(channel: AbstractAsyncContextManager[Channel], spec: ServerSpec) -> AsyncIterator[Robot]:
     """The robot over robocog's lean client on `channel` (an async context manager that opens it),
     with the initialize handshake (protocol 2025-11-25: see `lean`)."""
     from mcp_types import Implementation
@@ -261,7 +285,7 @@ async def _lean_session(channel: Any, spec: ServerSpec) -> AsyncIterator[Robot]:
         yield await _robot(client, tools, spec)
 
 
-async def _robot(client: Any, tools: list[Tool], spec: ServerSpec) -> Robot:
+async def _robot(client: McpClient, tools: list[Tool], spec: ServerSpec) -> Robot:
     """What the run needs from the server behind `client`: the system prompt, the task catalogue, the
     contract version and the physics build its instructions announce."""
     prompt = await client.get_prompt("robot_system")

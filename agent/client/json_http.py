@@ -4,11 +4,16 @@ body: the fleets a study starts itself (`robocog-server --json-response`, on thi
 The SDK's streamable HTTP client serves any server: event streams, resumption, redirects within the
 origin, a GET stream for the server's own notifications, TLS, proxies. For each message it builds an
 httpx request (parsing the URL again), opens a task group in the sender's context, dumps the message
-to a dict that httpx encodes, and reads the answer through httpx's response objects; aiohttp under
-it (`aiohttp_transport`) still cost a fleet's harness about 0.35 ms of CPU per call (its request and
-response objects, its timeouts, its connector). Here each request of `lean`'s client is written as
-one HTTP/1.1 POST on a connection kept alive for the whole attempt, and its answer read back as one
-JSON body: about 0.15 ms a call (`make bench --only http`).
+to a dict that httpx encodes, and reads the answer through httpx's response objects. Here each
+request of `lean`'s client is written as one HTTP/1.1 POST on a connection kept alive for the whole
+attempt, and its answer read back as one JSON body: about 0.15 ms a call (`make bench --only http`).
+
+This is the one hand-written HTTP left in robocog, kept until a library holds the fleets' figures:
+the same channel over httpx (its client, pool and h11 parsing; tried on branch `stack`) cost a
+fleet's harness 1.0-1.6 ms of CPU per request against 0.13-0.23 ms here, so the CPU of a fleet
+attempt over its physics-only CPU rose from 1.39 to 1.51-1.53 (the target is at most 1.5), uvloop
+or not. Calling httpx's transport directly saved 13 % of that, httpcore's pool on a small asyncio
+backend 35 %: not enough. Driving h11 (httpx's own parser) over asyncio streams is the next try.
 
 What it does as the SDK's transport does: the session id from `initialize`'s answer on every later
 request, with the negotiated `MCP-Protocol-Version` and the bearer token; a `202 Accepted` or an error
@@ -47,6 +52,7 @@ import anyio
 from mcp.shared.inbound import MCP_PROTOCOL_VERSION_HEADER
 from mcp_types import CONNECTION_CLOSED, INTERNAL_ERROR, INVALID_REQUEST, METHOD_NOT_FOUND, PARSE_ERROR
 
+from robocog.agent.client.protocols import Message
 from robocog.shared.errors import ServerConnectionError
 
 MCP_SESSION_ID = "mcp-session-id"
@@ -63,7 +69,6 @@ class ProtocolError(ValueError):
 #: A server that cannot be reached, hangs up, answers garbage or never answers.
 UNREACHABLE = (OSError, asyncio.IncompleteReadError, asyncio.LimitOverrunError, TimeoutError, ProtocolError)
 
-Message = dict[str, Any]
 logger = logging.getLogger(__name__)
 
 

@@ -38,7 +38,7 @@ from collections.abc import AsyncIterator, Mapping
 from contextlib import asynccontextmanager
 from dataclasses import dataclass
 from types import TracebackType
-from typing import IO, Any, Protocol, Self
+from typing import IO, Any, Self
 
 import anyio
 from mcp.shared.exceptions import MCPError
@@ -59,6 +59,7 @@ from mcp_types import (
 )
 
 from robocog.agent.client.output_schemas import OutputCheck
+from robocog.agent.client.protocols import Channel, Message
 
 logger = logging.getLogger(__name__)
 
@@ -66,40 +67,6 @@ logger = logging.getLogger(__name__)
 PROTOCOL_VERSION = "2025-11-25"
 #: How long a cancellation's notice may take to go out before the caller's cancellation goes on.
 CANCEL_NOTICE_S = 2.0
-
-Message = dict[str, Any]
-
-
-class Channel(Protocol):
-    """One connection to a server (opened and closed by its owner): a request's JSON-RPC message in,
-    its answer (a result or an error) out; a server that cannot be reached is the answer
-    `CONNECTION_CLOSED`, naming why."""
-
-    async def request(self, message: Message) -> Message: ...
-
-    async def notify(self, message: Message) -> None: ...
-
-
-class McpClient(Protocol):
-    """What robocog's harness asks of an MCP client: the SDK's `Client` or a `LeanClient`."""
-
-    @property
-    def instructions(self) -> str | None: ...
-
-    async def list_tools(self) -> ListToolsResult: ...
-
-    async def call_tool(
-        self,
-        name: str,
-        arguments: dict[str, Any] | None = None,
-        read_timeout_seconds: float | None = None,
-        *,
-        meta: RequestParamsMeta | None = None,
-    ) -> CallToolResult: ...
-
-    async def read_resource(self, uri: str) -> ReadResourceResult: ...
-
-    async def get_prompt(self, name: str, arguments: dict[str, str] | None = None) -> GetPromptResult: ...
 
 
 @dataclass

@@ -19,7 +19,6 @@ from typing import Any, Literal, cast
 
 from mcp_types import RequestParamsMeta, Tool
 
-from robocog.agent.client.lean import McpClient
 from robocog.agent.client.model import (
     IMAGE_OMITTED,
     assistant_message,
@@ -29,6 +28,7 @@ from robocog.agent.client.model import (
     usage,
 )
 from robocog.agent.client.model_errors import Retries
+from robocog.agent.client.protocols import McpClient
 from robocog.agent.client.settings import AgentSettings
 from robocog.agent.client.slips import decode_arguments, text_tool_calls
 from robocog.agent.client.trace_sinks import Trace

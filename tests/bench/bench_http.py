@@ -4,15 +4,16 @@ A real `robocog-server --transport http` process on a free loopback port:
 - a read-only call (look_around) over one session, p50/p99, without and with a bearer token;
 - sessions: RSS of the server before, with the cap (64) open, after 2,000 refused opens past the cap,
   and after every session was closed (DELETE), i.e. whether the memory comes back;
-- connection reuse: the same calls through the SDK's client as it comes (a plain httpx2 client: the
-  previous release) and through robocog's (`agent.client.connection`: answers read to their end, idle
-  connections kept through a model's turn), alternating in rounds on one server: the TCP connections
-  each opened (counted at the event loop, where both HTTP stacks open them), the client's and the
+- connection reuse over event-stream answers: the same calls through the SDK's client as it comes (a
+  plain httpx2 client) and through robocog's path for a server a user names
+  (`agent.client.connection._http_transport`: the SDK as it comes, with the bearer token, its timeouts
+  and idle connections kept through a model's turn), alternating in rounds on one server: the TCP
+  connections each opened (counted at the event loop, where httpx opens them), the client's and the
   server's CPU per call, the wall time, and the connections opened by calls after a pause longer than
   httpx's and uvicorn's 5 s;
 - one JSON body per answer: against a server started with `--json-response` (as the harness starts
-  its fleets), the same calls' CPU and time through robocog's SDK path and through the lean transport
-  a study's fleets use (`agent/client/json_http.py`), alternating in rounds.
+  its fleets), the same calls' CPU and time through robocog's SDK path and through the lean client's
+  channel a study's fleets use (`agent/client/json_http.py`), alternating in rounds.
 """
 
 from __future__ import annotations
@@ -98,9 +99,8 @@ async def _round_trips(url: str, token: str | None) -> list[float]:
 
 
 class _Connects:
-    """Counts the TCP connections this process opens, whichever HTTP stack opens them: httpcore
-    (the SDK's client as it comes) and aiohttp (robocog's, over plain HTTP) both open theirs through
-    the event loop's `create_connection`."""
+    """Counts the TCP connections this process opens: httpcore opens them through the event loop's
+    `create_connection` (anyio's TCP connect)."""
 
     def __init__(self) -> None:
         self.count = 0
