@@ -21,8 +21,7 @@ each. A study gives the same rows either way.
 Every attempt is appended to the results file as soon as it finishes. `--resume` keeps the units
 already complete, drops the rows of a unit that was cut off or has an errored attempt, and runs
 that unit again from scratch; a torn last line (a crash mid-write) is dropped with a warning. An
-errored attempt stops its unit, except a suite instance's, which ends only itself until
-`SUITE_ERRORS_IN_A_ROW` instances in a row have errored.
+errored attempt stops its unit; a suite instance's ends only itself (`SUITE_ERRORS_IN_A_ROW`).
 """
 
 from __future__ import annotations
@@ -233,8 +232,7 @@ class Runner:
             await self.write(row)
             written = True
             errors_in_a_row = errors_in_a_row + 1 if row.outcome == "error" else 0
-            # the model service failed: the unit stops (--resume reruns it), unless this is a suite's
-            # instance, which ends only itself while the service has not failed SUITE_ERRORS_IN_A_ROW times
+            # the model service failed: the unit stops (--resume reruns it), unless a suite instance errored
             if errors_in_a_row and (task_id not in self.suite.instances or errors_in_a_row >= SUITE_ERRORS_IN_A_ROW):
                 self.progress.advance(later + self.tasks_after(iteration))
                 return _Stop(None)
