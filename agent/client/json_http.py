@@ -5,15 +5,15 @@ The SDK's streamable HTTP client serves any server: event streams, resumption, r
 origin, a GET stream for the server's own notifications, TLS, proxies. For each message it builds an
 httpx request (parsing the URL again), opens a task group in the sender's context, dumps the message
 to a dict that httpx encodes, and reads the answer through httpx's response objects. Here each
-request of `lean`'s client is written as one HTTP/1.1 POST on a connection kept alive for the whole
-attempt, and its answer read back as one JSON body: about 0.15 ms a call (`make bench --only http`).
+request of `lean`'s client is one HTTP/1.1 POST on a connection kept alive for the whole attempt,
+written and read by h11 (the HTTP/1.1 library under httpx: request line and headers checked, the
+answer's status line, headers and body by length, in chunks or up to the connection's end) over
+asyncio's streams, and its answer read back as one JSON body.
 
-This is the one hand-written HTTP left in robocog, kept until a library holds the fleets' figures:
-the same channel over httpx (its client, pool and h11 parsing; tried on branch `stack`) cost a
-fleet's harness 1.0-1.6 ms of CPU per request against 0.13-0.23 ms here, so the CPU of a fleet
-attempt over its physics-only CPU rose from 1.39 to 1.51-1.53 (the target is at most 1.5), uvloop
-or not. Calling httpx's transport directly saved 13 % of that, httpcore's pool on a small asyncio
-backend 35 %: not enough. Driving h11 (httpx's own parser) over asyncio streams is the next try.
+Why h11 alone and not httpx on it: httpx's client, httpcore's pool and anyio's streams cost a
+fleet's harness 1.0-1.6 ms of CPU per request (branch `stack`), and the CPU of a fleet attempt over
+its physics-only CPU rose from 1.39 to 1.51-1.53, past the 1.5 the project holds; h11 alone costs
+about 0.1 ms a request (`make bench --only overhead` and `--only http` measure it: docs/figures.md).
 
 What it does as the SDK's transport does: the session id from `initialize`'s answer on every later
 request, with the negotiated `MCP-Protocol-Version` and the bearer token; a `202 Accepted` or an error
@@ -21,7 +21,7 @@ status as the request's JSON-RPC error (the server's own error body when it sent
 timeouts (`CONNECT_TIMEOUT_S`, `READ_TIMEOUT_S`); and a `DELETE` of the session when it closes, which
 frees the fleet's robot at once. A `401` is `ServerConnectionError` with the same sentence as
 robocog's SDK path. A connection idle past `keepalive_s` (the client's 60 s, under the server's 75 s)
-is not used again; a request is never written twice (as with aiohttp, only a `DELETE` is written again
+is not used again; a request is never written twice (only a `DELETE` is written again
 on a new connection when a kept-alive one turns out closed: a POST could have reached the server).
 
 What it does better for a study: a server that cannot be reached, hangs up or never answers fails
@@ -49,6 +49,7 @@ from typing import Any
 from urllib.parse import urlsplit
 
 import anyio
+import h11
 from mcp.shared.inbound import MCP_PROTOCOL_VERSION_HEADER
 from mcp_types import CONNECTION_CLOSED, INTERNAL_ERROR, INVALID_REQUEST, METHOD_NOT_FOUND, PARSE_ERROR
 
@@ -60,14 +61,16 @@ MCP_SESSION_ID = "mcp-session-id"
 CONNECT_TIMEOUT_S, READ_TIMEOUT_S = 30.0, 300.0
 #: The longest answer head and JSON body read (a tools/list is about 40 KB).
 MAX_HEAD, MAX_BODY = 64 * 1024, 64 * 1024 * 1024
+#: How much of an answer is read from the socket at a time.
+READ_SIZE = 64 * 1024
 
 
 class ProtocolError(ValueError):
-    """An answer that is not HTTP/1.1 as this channel reads it."""
+    """An answer that is not HTTP/1.1 as h11 reads it, or one past this channel's limits."""
 
 
 #: A server that cannot be reached, hangs up, answers garbage or never answers.
-UNREACHABLE = (OSError, asyncio.IncompleteReadError, asyncio.LimitOverrunError, TimeoutError, ProtocolError)
+UNREACHABLE = (OSError, TimeoutError, ProtocolError)
 
 logger = logging.getLogger(__name__)
 
@@ -86,76 +89,69 @@ class _Stale(Exception):
 
 
 class _Connection:
-    """One HTTP/1.1 connection, kept alive between requests."""
+    """One HTTP/1.1 connection, kept alive between requests; h11 writes the requests and reads the
+    answers (status line, headers, a body by length, in chunks or up to the connection's end)."""
 
     def __init__(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
         self.reader, self.writer = reader, writer
+        self.http = h11.Connection(h11.CLIENT, max_incomplete_event_size=MAX_HEAD)
         self.reused = False
         self.idle_since = time.monotonic()
 
     def close(self) -> None:
         self.writer.close()
 
-    async def exchange(self, request: bytes, method: str) -> tuple[int, dict[str, str], bytes, bool]:
-        """Write `request`; the answer's status, headers (names in lower case), body, and whether the
-        connection may serve the next request."""
+    async def exchange(self, request: h11.Request, body: bytes) -> tuple[int, dict[str, str], bytes, bool]:
+        """Send `request` with `body`; the answer's status, headers (names in lower case), body, and
+        whether the connection may serve the next request."""
+        http = self.http
         try:
-            self.writer.write(request)
+            self.writer.write(http.send(request) + http.send(h11.Data(data=body)) + http.send(h11.EndOfMessage()))
             await self.writer.drain()
-            head = await self.reader.readuntil(b"\r\n\r\n")
-        except asyncio.IncompleteReadError as exc:
-            if self.reused and not exc.partial:
-                raise _Stale from exc
-            raise
         except (ConnectionResetError, BrokenPipeError) as exc:
             if self.reused:
                 raise _Stale from exc
             raise
-        status, headers = _head(head)
-        keep = "close" not in headers.get("connection", "").lower()
-        if method == "HEAD" or status in (204, 304) or 100 <= status < 200:
-            return status, headers, b"", keep
-        if "chunked" in headers.get("transfer-encoding", "").lower():
-            return status, headers, await self._chunked(), keep
-        length = headers.get("content-length")
-        if length is None:  # the body ends with the connection
-            return status, headers, await self.reader.read(MAX_BODY), False
-        if not length.isdigit() or int(length) > MAX_BODY:
-            raise ProtocolError(f"a content-length of {length!r}")
-        return status, headers, await self.reader.readexactly(int(length)), keep
-
-    async def _chunked(self) -> bytes:
+        first = b""  # the answer's first bytes, for an error that quotes them
+        status, size = 0, 0
+        headers: dict[str, str] = {}
         parts: list[bytes] = []
         while True:
-            size = await self.reader.readuntil(b"\r\n")
             try:
-                count = int(size.split(b";", 1)[0].strip(), 16)
-            except ValueError:
-                raise ProtocolError(f"a chunk size of {size[:40]!r}") from None
-            if count == 0:
-                while await self.reader.readuntil(b"\r\n") != b"\r\n":  # the trailers
-                    pass
-                return b"".join(parts)
-            parts.append(await self.reader.readexactly(count))
-            await self.reader.readexactly(2)
-
-
-def _head(head: bytes) -> tuple[int, dict[str, str]]:
-    """The status and the headers of an answer's head."""
-    status_line, *lines = head.decode("latin-1").split("\r\n")
-    version, _, rest = status_line.partition(" ")
-    code = rest[:3]
-    if not version.startswith("HTTP/1.") or not code.isdigit():
-        raise ProtocolError(f"an answer that begins {status_line[:60]!r}")
-    headers: dict[str, str] = {}
-    for line in lines:
-        if line:
-            name, colon, value = line.partition(":")
-            if not colon:
-                raise ProtocolError(f"a header line {line[:60]!r}")
-            key = name.strip().lower()
-            headers[key] = f"{headers[key]}, {value.strip()}" if key in headers else value.strip()
-    return int(code), headers
+                event = http.next_event()
+            except h11.RemoteProtocolError as exc:
+                begins = first.split(b"\r\n", 1)[0][:60].decode("latin-1")
+                raise ProtocolError(f"an answer that begins {begins!r} (h11: {exc})") from None
+            if event is h11.NEED_DATA:
+                try:
+                    chunk = await self.reader.read(READ_SIZE)
+                except ConnectionResetError as exc:
+                    if self.reused and not first:
+                        raise _Stale from exc
+                    raise
+                if not chunk and not first:
+                    if self.reused:
+                        raise _Stale
+                    raise ConnectionResetError("the server closed the connection without answering")
+                first = first or chunk
+                http.receive_data(chunk)
+            elif isinstance(event, h11.Response):
+                status = event.status_code
+                for name, value in event.headers:
+                    key, text = name.decode("latin-1"), value.decode("latin-1")
+                    headers[key] = f"{headers[key]}, {text}" if key in headers else text
+            elif isinstance(event, h11.Data):
+                size += len(event.data)
+                if size > MAX_BODY:
+                    raise ProtocolError(f"an answer longer than {MAX_BODY} bytes")
+                parts.append(event.data)
+            elif isinstance(event, h11.EndOfMessage):
+                break
+            # an informational answer (1xx) comes before the real one: read on
+        keep = http.our_state is h11.DONE and http.their_state is h11.DONE
+        if keep:
+            http.start_next_cycle()
+        return status, headers, b"".join(parts), keep
 
 
 class JsonHttpLink:
@@ -168,9 +164,9 @@ class JsonHttpLink:
         if parts.scheme != "http" or not parts.hostname:
             raise ValueError(f"{url}: the lean client's channel takes http:// URLs only")
         self._host, self._port = parts.hostname, parts.port or 80
-        self._path = (parts.path or "/") + (f"?{parts.query}" if parts.query else "")
+        self._path = ((parts.path or "/") + (f"?{parts.query}" if parts.query else "")).encode("ascii")
         authority = f"[{self._host}]" if ":" in self._host else self._host
-        self._authority = authority if parts.port is None else f"{authority}:{parts.port}"
+        self._authority = (authority if parts.port is None else f"{authority}:{parts.port}").encode("ascii")
         self._token = token
         self._keepalive_s = keepalive_s
         self._idle: list[_Connection] = []
@@ -180,18 +176,18 @@ class JsonHttpLink:
         #: TCP connections opened so far (a kept-alive channel opens one per session).
         self.connections_opened = 0
 
-    def _request(self, method: str, body: bytes = b"") -> bytes:
-        lines = [f"{method} {self._path} HTTP/1.1", f"host: {self._authority}"]
+    def _request(self, method: str, body: bytes) -> h11.Request:
+        headers = [(b"host", self._authority)]
         if method == "POST":
-            lines += ["accept: application/json, text/event-stream", "content-type: application/json"]
+            headers += [(b"accept", b"application/json, text/event-stream"), (b"content-type", b"application/json")]
         if self._token:
-            lines.append(f"authorization: Bearer {self._token}")
+            headers.append((b"authorization", b"Bearer " + self._token.encode("latin-1")))
         if self.session_id:
-            lines.append(f"{MCP_SESSION_ID}: {self.session_id}")
+            headers.append((MCP_SESSION_ID.encode(), self.session_id.encode("latin-1")))
         if self.protocol_version:
-            lines.append(f"{MCP_PROTOCOL_VERSION_HEADER}: {self.protocol_version}")
-        lines.append(f"content-length: {len(body)}")
-        return ("\r\n".join(lines) + "\r\n\r\n").encode("latin-1") + body
+            headers.append((MCP_PROTOCOL_VERSION_HEADER.encode(), self.protocol_version.encode("latin-1")))
+        headers.append((b"content-length", str(len(body)).encode()))
+        return h11.Request(method=method, target=self._path, headers=headers)
 
     async def _connection(self) -> _Connection:
         now = time.monotonic()
@@ -213,7 +209,7 @@ class JsonHttpLink:
             connection = await self._connection()
             try:
                 async with asyncio.timeout(READ_TIMEOUT_S):
-                    status, headers, content, keep = await connection.exchange(self._request(method, body), method)
+                    status, headers, content, keep = await connection.exchange(self._request(method, body), body)
             except _Stale as stale:
                 connection.close()
                 if method == "DELETE":
