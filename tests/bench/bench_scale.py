@@ -37,17 +37,16 @@ import tempfile
 import time
 from collections.abc import AsyncIterator
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from robocog.agent.analysis.results_file import read_rows
 from robocog.agent.harness import runner as evaluation
-from robocog.agent.harness.progress import Progress
 from robocog.agent.harness.study import run_eval
 from robocog.shared.evaluation import EvalConfig
 from robocog.shared.trace import ModelTurn, read_trace
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository, for tests.helpers
-from tests.helpers import ray_cluster
+if TYPE_CHECKING:  # a type only: `against` runs this file under an older install, which keeps it elsewhere
+    from robocog.agent.harness.progress import Progress
 
 BIN = Path(sys.executable).parent
 LATENCY_S = 1.0
@@ -271,6 +270,9 @@ def ray_overhead() -> dict[str, float]:
         start = time.monotonic()
         rows = asyncio.run(run_eval(config, Path(tmp) / f"{name}.jsonl", on_progress=progress, **kwargs))
         return time.monotonic() - start, rows
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository, for tests.helpers
+    from tests.helpers import ray_cluster  # here: `against` runs this file under an install without it
 
     with ray_cluster() as address, tempfile.TemporaryDirectory() as tmp:
         local, local_rows = timed("local")
