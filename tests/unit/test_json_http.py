@@ -262,6 +262,8 @@ class Quirky(FakeServer):
             raise ConnectionError  # closed, without a `connection: close`
         elif name == "not_http":
             writer.write(b"SSH-2.0-OpenSSH_9.2\r\n\r\n")
+        elif name == "huge_head":  # a header past the channel's 64 KB for an answer's head
+            writer.write(b"HTTP/1.1 200 OK\r\nx-padding: " + b"a" * (256 * 1024) + b"\r\ncontent-length: 0\r\n\r\n")
         else:
             await super().tool(name, request_id, reader, writer)
 
@@ -314,6 +316,14 @@ async def test_an_answer_that_is_not_http_fails_its_request_as_an_unreachable_se
     async with served(Quirky()) as url, session(url) as client:
         with pytest.raises(MCPError, match=r"is unreachable: ProtocolError: an answer that begins 'SSH-2\.0") as caught:
             await client.call_tool("not_http", {})
+        assert unreachable(caught.value)
+        assert not (await client.call_tool("fine", {})).is_error
+
+
+async def test_an_answer_whose_head_passes_64_kb_fails_its_request_and_the_next_goes_on() -> None:
+    async with served(Quirky()) as url, session(url) as client:
+        with pytest.raises(MCPError, match=r"is unreachable: ProtocolError: .*\(h11: ") as caught:
+            await client.call_tool("huge_head", {})
         assert unreachable(caught.value)
         assert not (await client.call_tool("fine", {})).is_error
 
