@@ -11,10 +11,7 @@ told in one line how to get one, and takes no robot. The same through the router
 from __future__ import annotations
 
 import json
-import os
-import shutil
 import socket
-import subprocess
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -26,12 +23,9 @@ from mcp_types import CallToolResult, ElicitRequestParams, ElicitResult
 
 from robocog.agent.client.loop import function_definitions
 from tests.helpers import T1, T1_SEQUENCE, action_args, http_server, http_server_process
+from tests.inspector_cli import inspector
 
 pytestmark = pytest.mark.anyio
-
-ROOT = Path(__file__).resolve().parents[2]
-#: The MCP Inspector's CLI, installed by `make inspector-cli` (`make test` does it where Node.js is).
-INSPECTOR = ROOT / ".cache" / "inspector" / "node_modules" / ".bin" / "mcp-inspector"
 
 
 def text(result: CallToolResult) -> str:
@@ -213,20 +207,9 @@ def call(location: str) -> list[str]:
 
 
 def test_back_to_back_inspector_cli_calls_both_act(tmp_path: Path) -> None:
-    if not INSPECTOR.exists():
-        pytest.skip("the MCP Inspector's CLI is not installed: `make inspector-cli` installs it (needs Node.js)")
-    node = shutil.which("node")
-    assert node is not None
     with http_server(tmp_path / "server.log", "--data-dir", str(tmp_path / "m")) as url:
         for location in ("Kitchen Door", "Hallway Area Door", "Living Room Door"):
-            out = subprocess.run(
-                [str(INSPECTOR), "--cli", url, "--transport", "http", "--method", "tools/call", *call(location)],
-                capture_output=True,
-                text=True,
-                timeout=90,
-                env={**os.environ, "NO_COLOR": "1"},
-            )
-            answer = json.loads(out.stdout[out.stdout.index("{") :])
+            answer = inspector(url, "tools/call", *call(location))
             assert not answer.get("isError"), answer
             assert answer["structuredContent"]["location"] == location
 

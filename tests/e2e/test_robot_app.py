@@ -8,8 +8,6 @@ Chromium: tests/e2e/test_robot_app_browser.py."""
 from __future__ import annotations
 
 import json
-import os
-import subprocess
 from pathlib import Path
 from typing import Any
 
@@ -17,12 +15,12 @@ import pytest
 from mcp import Client
 from mcp_types import TextResourceContents
 
-from tests.helpers import APP_TOOLS, ROBOT_TOOLS, ROOT, http_server, stdio_params
+from tests.helpers import APP_TOOLS, ROBOT_TOOLS, http_server, stdio_params
+from tests.inspector_cli import inspector
 
 pytestmark = pytest.mark.anyio
 
 #: The MCP Inspector's CLI, installed by `make inspector-cli` (`make test` does it where Node.js is).
-INSPECTOR = ROOT / ".cache" / "inspector" / "node_modules" / ".bin" / "mcp-inspector"
 URI = "ui://robocog/robot"
 MIME = "text/html;profile=mcp-app"
 LINKED = {"look_around", "move_to", "grab", "place", "open", "close", "look", "end_task"}
@@ -83,23 +81,7 @@ async def test_no_app_publishes_no_app(tmp_path: Path) -> None:
         assert [t.name for t in tools if t.meta and "ui" in t.meta] == []
 
 
-def inspector(url: str, *method: str) -> dict[str, Any]:
-    """What the MCP Inspector's CLI (no robocog code) answers for `method` against `url`."""
-    out = subprocess.run(
-        [str(INSPECTOR), "--cli", url, "--transport", "http", "--method", *method],
-        capture_output=True,
-        text=True,
-        timeout=90,
-        env={**os.environ, "NO_COLOR": "1"},
-    )
-    assert out.returncode == 0, out.stderr[-2000:]
-    answer: dict[str, Any] = json.loads(out.stdout[out.stdout.index("{") :])
-    return answer
-
-
 def test_the_mcp_inspector_lists_the_app_and_the_tools_that_name_it(tmp_path: Path) -> None:
-    if not INSPECTOR.exists():
-        pytest.skip("the MCP Inspector's CLI is not installed: `make inspector-cli` installs it (needs Node.js)")
     with http_server(tmp_path / "server.log", "--data-dir", str(tmp_path / "m")) as url:
         resources = {r["uri"]: r for r in inspector(url, "resources/list")["resources"]}
         tools = {t["name"]: t for t in inspector(url, "tools/list")["tools"]}
