@@ -235,6 +235,7 @@ def shown(e: Entry, b: Board) -> dict[str, Any]:
         "success_ci": _ci_text(o.success_ci),
         "false_success": pct(o.false_success_rate),
         "false_success_ci": _ci_text(o.false_success_ci) if o.false_success_rate is not None else "",
+        "never_ended": str(o.stopped),
         "pass_k": {str(k): pct(o.pass_k.get(k)) for k in b.ks},
         "pass_k_ci": {str(k): _ci_text(o.pass_k_ci.get(k)) for k in b.ks},
         "families": {f: pct(e.families[f].success) if f in e.families else "–" for f in b.families},
@@ -261,6 +262,7 @@ def entry_json(e: Entry, b: Board | None = None) -> dict[str, Any]:
         "success_ci": _interval(o.success_ci),
         "false_success_rate": None if o.false_success_rate is None else round(o.false_success_rate, 4),
         "false_success_ci": _interval(o.false_success_ci),
+        "never_ended": o.stopped,
         "pass_k": {str(k): v for k, v in o.pass_k.items()},
         "pass_k_ci": {str(k): _interval(v) for k, v in o.pass_k_ci.items()},
         "families": {f: _score(s) for f, s in e.families.items()},
@@ -300,7 +302,7 @@ def _with_ci(value: str, ci: str) -> str:
 def board_markdown(b: Board) -> str:
     """The leaderboard as a markdown table (leaderboard.md), its numbers those of the page (`shown`)."""
     header = ["#", "model", "protocol", *(["split"] if b.fresh else []), "verified", "attempts"]
-    header += ["success [95% CI]", "false success"]
+    header += ["success [95% CI]", "false success", "never ended"]
     header += [f"pass^{k}" for k in b.ks] + list(b.families) + [f"cap. {c}" for c in b.capabilities]
     header += ["tokens / attempt", "cost / attempt"]
     lines = []
@@ -310,6 +312,7 @@ def board_markdown(b: Board) -> str:
         line = [str(i), cell(e.model), e.protocol, *([cell(t["split"])] if b.fresh else []), mark]
         line += [str(e.overall.attempts)]
         line += [_with_ci(t["success"], t["success_ci"]), _with_ci(t["false_success"], t["false_success_ci"])]
+        line += [t["never_ended"]]
         line += [_with_ci(t["pass_k"][str(k)], t["pass_k_ci"][str(k)]) for k in b.ks]
         line += [t["families"][f] for f in b.families] + [t["capabilities"][c] for c in b.capabilities]
         line += [t["tokens_per_attempt"], t["cost_per_attempt"]]

@@ -138,3 +138,17 @@ def test_every_number_is_rounded_once_and_the_page_shows_the_markdown_s_digits()
     assert f"| {entry['shown']['success']} {entry['shown']['success_ci']} |" in line
     for k, text in entry["shown"]["pass_k"].items():
         assert f"{text} {entry['shown']['pass_k_ci'][k]}" in line
+
+
+def test_attempts_that_never_ended_are_counted_in_the_json_the_markdown_and_what_the_page_shows() -> None:
+    never = {"outcome": "stopped", "believed_success": None, "agreement": None, "stopped": True}
+    rows = [row("m", t, False, **never) for t in range(3)] + [row("m", t, True) for t in range(3, 8)]
+    b = board([study("s", rows)])
+    (entry,) = board_json(b)["entries"]
+    assert entry["never_ended"] == 3 and entry["shown"]["never_ended"] == "3" and entry["attempts"] == 8
+    table = {
+        line.split("|")[1].strip(): [c.strip() for c in line.split("|")]
+        for line in board_markdown(b).splitlines()
+        if line.startswith("| ")
+    }
+    assert table["1"][table["#"].index("never ended")] == "3"
