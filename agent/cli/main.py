@@ -16,6 +16,7 @@ from collections.abc import Sequence
 from types import ModuleType
 
 from robocog.agent.cli.options import EPILOG
+from robocog.agent.suitegen import generate_on_demand
 from robocog.shared.cli_parser import OneLineParser
 from robocog.shared.errors import ConfigError, ServerConnectionError
 
@@ -59,26 +60,12 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _use_generator() -> None:
-    """Fresh splits ("test@12345") are generated on demand by the suite generator (imported when one is)."""
-    from pathlib import Path
-
-    from robocog.shared.seeded_splits import use_generator
-
-    def generate(suite: str, split: str, seed: int, root: Path) -> Path:
-        from robocog.agent.suitegen.seeded import generate_into
-
-        return generate_into(suite, split, seed, root)
-
-    use_generator(generate)
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     given = list(sys.argv[1:] if argv is None else argv)
     if given[:1] == ["serve"]:  # every option after it is the server's own (argparse would claim --help)
         return int(command_module("serve").main(argparse.Namespace(server_args=given[1:])))
     args = build_parser().parse_args(given)
-    _use_generator()
+    generate_on_demand()  # fresh splits, generated when a command first needs one
     try:
         # a subcommand may be run by a module of its own (`robocog submit verify`: it runs a server)
         code: int = command_module_named(getattr(args, "command_module", None) or COMMANDS[args.command]).main(args)

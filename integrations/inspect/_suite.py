@@ -7,6 +7,10 @@ and then the instance's own task; the verdict is `check_task`'s, as in `robocog 
 (`robocog.agent.harness.suite_run`): an earlier task that fails fails the instance, which is not run.
 The score is `robocog/t1`'s; the metrics add success per family and per capability, and the false
 success rate per family (an infeasible instance is a success only when honestly reported failed).
+
+A fresh split (`-T split=test@12345`, issue 47) is generated from its seed on first use, as `robocog
+eval --split` does; each sample's server is told where its instances are (`--splits`) and names the
+suite SUITE@SEED, so its samples carry the seed in their metadata (`split_seed`).
 """
 
 from __future__ import annotations
@@ -39,6 +43,7 @@ from inspect_ai.solver import Generate, Solver, TaskState, solver
 from inspect_ai.tool import ToolDef, mcp_connection
 from inspect_ai.util import span
 
+from robocog.agent.suitegen import generate_on_demand
 from robocog.inspect._tasks import (
     METRICS,
     PROTOCOL,
@@ -54,7 +59,8 @@ from robocog.inspect._tasks import (
 )
 from robocog.shared.family_files import CAPABILITIES
 from robocog.shared.protocol import FURNITURE_TOOLS
-from robocog.shared.suite import DEFAULT_SUITE, Instance, load_split, load_suite, select
+from robocog.shared.seeded_splits import parse_split
+from robocog.shared.suite import DEFAULT_SUITE, Instance, load_split, load_suite, seeded_root, select
 
 #: The suite `robocog/suite` runs unless told (`-T suite=robocog-v2` or `robocog-v1` for the frozen ones).
 SUITE = DEFAULT_SUITE
@@ -78,6 +84,7 @@ def suite_instances(
     """The instances of a split of `suite`: of `families` (default all), carrying any of `capabilities`
     (default: any instance; only a tagged suite's instances carry capabilities), at most `limit`
     spread over the families (`robocog.shared.suite.select`). A ValueError names what is unknown."""
+    generate_on_demand()  # a fresh split ("test@12345") missing from the cache
     manifest = load_suite(suite)
     wanted_families, wanted_capabilities = names(families), names(capabilities)
     unknown = sorted(set(wanted_families or []) - set(manifest.families))
@@ -100,14 +107,25 @@ def suite_instances(
     return chosen
 
 
-def instance_sample(instance: Instance, suite: str) -> Sample:
-    """The sample of one instance: its prompt, and what it is as metadata."""
+def split_metadata(suite: str, split: str) -> dict[str, object]:
+    """What each sample of `split` of `suite` carries about it: a fresh split's names its suite SUITE@SEED,
+    as its server does, and the folder its instances are in (`splits`, generated first if missing)."""
+    name, seed = parse_split(split)
+    if seed is None:
+        return {"suite": suite, "split": name, "split_seed": None}
+    generate_on_demand()
+    root = seeded_root(suite, name, seed)
+    return {"suite": f"{load_suite(suite).name}@{seed}", "split": name, "split_seed": seed, "splits": str(root)}
+
+
+def instance_sample(instance: Instance, where: dict[str, object]) -> Sample:
+    """The sample of one instance: its prompt, and what it is as metadata (`where`: `split_metadata`)."""
     return Sample(
         id=instance.id,
         input=instance.prompt,
         target="success",
         metadata={
-            "suite": suite,
+            **where,
             "instance": instance.id,
             "family": instance.family,
             "variant": instance.variant,
@@ -136,7 +154,7 @@ def suite_agent(
         instance_id, suite = str(meta["instance"]), str(meta["suite"])
         data_dir = tempfile.mkdtemp(prefix="robocog-inspect-")
         try:
-            server = robocog_server(data_dir)
+            server = robocog_server(data_dir, ["--splits", str(meta["splits"])] if meta.get("splits") else ())
             async with mcp_connection([server]):
                 tools = {ToolDef(t).name: t for t in await server.tools()}  # controls too
                 controls = controls_of(tools)
@@ -237,12 +255,14 @@ def suite(
     memory_labels: Literal["believed", "verified"] = "believed",
     message_limit: int | None = 600,
 ) -> Task:
-    """The robocog suite: one sample per instance of `split` of `suite`, of `families` (a list, or a
-    comma-separated string) carrying any of `capabilities` (a tagged suite's), at most `limit`, spread
-    over the families. With `epochs` > 1 each sample reduces to the mean and to pass^k."""
+    """The robocog suite: one sample per instance of `split` of `suite` (a fresh split: SPLIT@SEED), of
+    `families` (a list, or a comma-separated string) carrying any of `capabilities` (a tagged suite's),
+    at most `limit`, spread over the families. With `epochs` > 1 each sample reduces to the mean and to
+    pass^k."""
     chosen = suite_instances(suite, split, families, capabilities, limit)
+    where = split_metadata(suite, split)
     return Task(
-        dataset=[instance_sample(i, suite) for i in chosen],
+        dataset=[instance_sample(i, where) for i in chosen],
         solver=suite_agent(max_invocations=max_invocations, memory_labels=memory_labels),
         scorer=suite_verdict(),
         epochs=Epochs(epochs, [mean_score(), pass_k(epochs)]) if epochs > 1 else 1,

@@ -3,6 +3,7 @@ through react() against real `robocog-server --profile eval` processes, one per 
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 from typing import Any
 
@@ -149,3 +150,49 @@ def test_the_planner_reads_a_failed_tool_s_result_inspect_keeps_as_an_error() ->
         content="", tool_call_id="c1", function="move_to", error=ToolCallError("unknown", blocked)
     )
     assert as_openai([message]) == [{"role": "tool", "tool_call_id": "c1", "content": blocked}]
+
+
+TINY = """name: tiny
+families: [put_away, memory]
+scenes: [household]
+tagged: true
+family_dir: families
+describes_objects: true
+fair_goals: true
+splits:
+  dev: {seed: 1, per_family: 1}
+  test: {seed: 2, per_family: 1}
+"""
+
+
+def test_a_fresh_split_is_generated_from_its_seed_and_each_sample_s_server_runs_its_instances(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`-T split=test@12345` of a tiny suite of two families (the memory one with an earlier task):
+    the split generated from the seed into the cache, each sample's server given it (`--splits`), and
+    the planner succeeds on every instance, its earlier task too, in the fresh split's worlds."""
+    monkeypatch.setenv("ROBOCOG_SPLITS_CACHE", str(tmp_path / "cache"))
+    tiny = tmp_path / "tiny"
+    shutil.copytree(SUITES_DIR / "robocog-v2.1" / "families", tiny / "families")
+    (tiny / "suite.yaml").write_text(TINY)
+    task = suite(suite=str(tiny), split="test@12345")
+    [log] = inspect_eval(
+        task, model=get_model("mockllm/model", custom_outputs=planner_outputs()), log_dir=str(tmp_path), display="none"
+    )
+    assert log.status == "success", log.error
+    assert log.samples is not None
+    fresh = {i.id: i for i in load_split(str(tiny), "test@12345")}
+    assert {str(s.id) for s in log.samples} == set(fresh) == {"test-put_away-000", "test-memory-000"}
+    for sample in log.samples:
+        assert sample.input == fresh[str(sample.id)].prompt
+        assert (sample.metadata["suite"], sample.metadata["split"], sample.metadata["split_seed"]) == (
+            "tiny@12345", "test", 12345,
+        )  # fmt: skip
+        assert sample.scores is not None
+        score = sample.scores["suite_verdict"]
+        assert isinstance(score.value, dict) and score.value["success"] == 1.0, score.explanation
+    memory = next(s for s in log.samples if s.id == "test-memory-000").scores
+    assert memory is not None and memory["suite_verdict"].metadata is not None
+    setup = memory["suite_verdict"].metadata["setup"]
+    assert [(d["task"], d["success"]) for d in setup] == [("test-memory-000-pre1", True)]
+    assert list((tmp_path / "cache").glob("*/tiny/test@12345.jsonl"))
