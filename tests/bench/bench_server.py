@@ -19,7 +19,11 @@ from mcp.client.stdio import StdioServerParameters, stdio_client
 
 from robocog.server.app import build_server
 from robocog.server.config import SessionConfig
-from robocog.server.world.paper import T1_SEQUENCE
+
+try:
+    from robocog.server.world.paper import T1_SEQUENCE
+except ImportError:  # a release before issue 49 (`ROBOCOG_BENCH_AGAINST` runs this file under its install)
+    from robocog.shared.paper import T1_SEQUENCE  # type: ignore[import-not-found,no-redef]
 
 COLD_STARTS = 5
 ROUND_TRIPS = 500
