@@ -57,7 +57,7 @@ FURNITURE_TOOLS = frozenset({"open", "close"})
 
 #: The version of the published MCP contract (assets/contract/, CHANGELOG.md there). The server announces
 #: it in its instructions as "MCP contract X.Y"; `robocog contract` reads it back from there.
-CONTRACT_VERSION = "4.2"
+CONTRACT_VERSION = "4.3"
 
 #: The contract version in a server's instructions: "MCP contract 1.0", "contract 2.3".
 CONTRACT_VERSION_PATTERN = re.compile(r"\bcontract\s+v?(\d+(?:\.\d+)+)\b", re.IGNORECASE)

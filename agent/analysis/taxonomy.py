@@ -19,9 +19,10 @@ an empty hand is both a hallucination and an affordance error):
   without a move_to hint), a place on an occupied position whose occupant is never moved later.
 - `wrong_order`: an action whose precondition a later action of the plan should have met first:
   a grab or place before the move_to to its location (`not_at_location`, or `out_of_reach` with
-  the server's "move_to(...) first" hint), or a place on a position held by an object the agent
-  grabs later in the attempt (it had to move that object, or park it, first: the Blocksworld
-  "non-constructive" move done in the wrong order).
+  the server's "move_to(...) first" hint), a grab or place into a closed container before the open
+  it needs (`out_of_reach` naming the `container`, or with "open(...) first"), or a place on a
+  position held by an object the agent grabs later in the attempt (it had to move that object, or
+  park it, first: the Blocksworld "non-constructive" move done in the wrong order).
 - `missing_step`: the agent ended the task (end_task accepted) on a feasible task whose goal the
   ground truth found unmet: a step of the plan was never done. (On an infeasible task a claimed
   success is scored as honesty, not here.)
@@ -172,7 +173,8 @@ def moved_unseen(events: Sequence[TraceEvent]) -> set[int]:
             slipped = False
         elif isinstance(e, ToolResult) and e.id in at_shut:
             index = at_shut.pop(e.id)
-            if _CLOSED in str((e.structured or {}).get("message", "")):
+            said = e.structured or {}
+            if said.get("container") or _CLOSED in str(said.get("message", "")):  # (no `container` before 4.3)
                 out.add(index)
         elif isinstance(e, ToolCall):
             n += 1
@@ -232,7 +234,8 @@ def _action_categories(calls: list[_Call], i: int, names: SceneNames) -> set[str
     elif code == "not_at_location":
         found.add("wrong_order")
     elif code == "out_of_reach":  # before the move_to, or the open, it needs; or beyond the arm
-        found.add("wrong_order" if _MOVE_HINT in message or _OPEN_HINT in message else "affordance")
+        before = _MOVE_HINT in message or _OPEN_HINT in message or bool(c.data.get("container"))
+        found.add("wrong_order" if before else "affordance")
     elif code == "position_occupied":
         occupant = _OCCUPIED_BY.search(message)
         later = occupant is not None and _grabbed_later(calls, i, occupant.group(1))

@@ -10,21 +10,17 @@ object (`robocog.agent.policies.explore`) knows which locations and containers i
 
 from __future__ import annotations
 
-import re
 from collections.abc import Mapping
 from typing import Any
 
 from robocog.agent.families.reading import Goal
 from robocog.agent.policies.belief import Belief
 
-#: A failed place or grab names the closed container in the way: "..., which is closed. open('NAME') first."
-_CLOSED_OVER = re.compile(r"which is closed\. open\('([^']+)'\) first")
-
 
 def closed_over(result: dict[str, Any]) -> str | None:
-    """The closed container a failed action's result says is in the way (not the arm's reach), if any."""
-    found = _CLOSED_OVER.search(str(result.get("message", ""))) if result.get("status") == "failure" else None
-    return found.group(1) if found else None
+    """The closed container a failed grab's or place's result names in the way (its `container`), if any."""
+    container = result.get("container") if result.get("status") == "failure" else None
+    return container if isinstance(container, str) else None
 
 
 def out_of_sight(goals: Mapping[str, Goal], first: Belief) -> bool:

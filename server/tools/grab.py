@@ -61,7 +61,7 @@ def grab(robot: RobotSession, object: ObjectArg) -> GrabResult:
             f"The {name} cannot be reached: it is inside the {shut.replace('_', ' ')}, which is closed. "
             f"open('{shut}') at {spec.location} first."
         )
-        return _out(name, "out_of_reach", message)
+        return GrabResult(status="failure", message=message, error="out_of_reach", object=name, container=shut)
     here = world.robot_location()
     where = world.placement(name)
     if where.location != here:

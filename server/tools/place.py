@@ -55,7 +55,7 @@ def place(robot: RobotSession, location: LocationArg, position: PositionArg) -> 
     if shut is not None:
         inside = shut.replace("_", " ")
         message = f"The {pname} position of {loc} is inside the {inside}, which is closed. open('{shut}') first."
-        return _failure("out_of_reach", message, held, loc, pname)
+        return _failure("out_of_reach", message, held, loc, pname, container=shut)
     occupant = world.occupant(loc, pname, ignore=held)
     if occupant is not None:
         free = [p for p in names if world.occupant(loc, p, ignore=held) is None]
@@ -90,6 +90,7 @@ def _failure(
     *,
     suggestions: list[str] | None = None,
     released: bool = False,
+    container: str | None = None,
 ) -> PlaceResult:
     """A failed place of `held` (still in the hand unless `released`) at `location` / `position`."""
     return PlaceResult(
@@ -101,6 +102,7 @@ def _failure(
         location=location,
         position=position,
         holding=None if released else held,
+        container=container,
     )
 
 

@@ -45,6 +45,7 @@ async def test_open_and_close_a_drawer_through_mcp(robot: Client) -> None:
     assert not any("sponge" in v["objects"] for v in look["locations"])
     is_error, grab = await call(robot, "grab", object="sponge")
     assert is_error and grab["error"] == "out_of_reach" and "closed" in grab["message"]
+    assert grab["container"] == "kitchen_drawer"  # the furniture to open, named apart from the message
     is_error, away = await call(robot, "open", furniture="kitchen_drawer")
     assert is_error and away["error"] == "not_at_location"
     await call(robot, "move_to", location="Kitchen Drawer")

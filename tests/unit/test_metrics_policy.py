@@ -178,6 +178,8 @@ def test_open_and_close_are_robot_actions_as_the_optimum_counts_them() -> None:
     closed = {"status": "failure", "error": "out_of_reach", "message": "It is inside the fridge, which is closed. "}
     early = [*_call(1, "place", closed | {"message": closed["message"] + "open('fridge') first."}, location="K")]
     assert classify(early)["wrong_order"] == 1 and classify(early)["affordance"] == 0
+    named = closed | {"message": "Cannot be reached.", "container": "fridge"}  # 4.3: the field, whatever the words
+    assert classify([*_call(1, "grab", named, object="jar")])["wrong_order"] == 1
 
 
 def test_a_silent_slips_empty_hand_is_the_worlds_doing() -> None:

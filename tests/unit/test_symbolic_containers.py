@@ -11,6 +11,7 @@ from typing import Any
 from robocog.agent.families.reading import Request
 from robocog.agent.policies import explore, sightings
 from robocog.agent.policies.belief import Belief, Goal
+from robocog.agent.policies.history import History, PastCall, current_belief
 from robocog.agent.symbolic.plans import optimal_plan, solved
 from robocog.agent.symbolic.rearrangement import UNSEEN
 from robocog.agent.symbolic.rearrangement import optimal_plan as believed_plan
@@ -178,3 +179,15 @@ def test_the_search_looks_opens_and_drives_to_the_nearest_unseen_place_then_give
     belief = sightings.merge(belief, look("Kitchen", KITCHEN_SEEN, {}, partial=True))
     move = explore.next_move(request, request.goals, belief)
     assert move is not None and move.tool is None and "did not find the sock" in move.reason
+
+
+def test_a_place_refused_by_a_closed_container_tells_the_planner_which_to_open() -> None:
+    """The result names the furniture in its `container` (contract 4.3): the planner believes it
+    closed (someone shut it) whatever the message's words; a place beyond the arm names none."""
+    opened = look("Drawer", {"Drawer": (["Hall"], {"inside": None}, [])}, {"drawer": ("Drawer", "open")}, partial=False)
+    where = {"location": "Drawer", "position": "inside"}
+    for container, closed in (("drawer", {"drawer"}), (None, set())):
+        refused = {"status": "failure", "error": "out_of_reach", "message": "Not now.", "container": container}
+        calls = [PastCall("look_around", {}, opened, False), PastCall("place", where, refused, True)]
+        _, belief = current_belief(History("Put the sock in the drawer.", calls, []))
+        assert belief is not None and belief.closed == closed
