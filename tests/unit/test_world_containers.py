@@ -15,7 +15,7 @@ import pytest
 
 from robocog.server.robots.session import RobotSession
 from robocog.server.world.world import World
-from robocog.shared.results import LookAroundResult, OpenCloseResult
+from robocog.shared.results import GrabResult, LookAroundResult, OpenCloseResult, PlaceResult
 from tests.unit.world_helpers import TOOLS, perform
 
 
@@ -173,6 +173,7 @@ def test_what_a_closed_container_holds_can_be_neither_seen_nor_reached(robot: Ro
     assert here.objects == [] and here.place_positions == []
     assert ("kitchen_drawer", "closed") in {(f.name, f.state) for f in look.furniture}
     grab = perform(robot, ("grab", "sponge"))
+    assert isinstance(grab, GrabResult)
     assert (grab.status, grab.error, grab.container) == ("failure", "out_of_reach", "kitchen_drawer")
     assert "kitchen drawer" in grab.message and "closed" in grab.message and "open('kitchen_drawer')" in grab.message
     operate(robot, "open", "kitchen_drawer")
@@ -188,6 +189,7 @@ def test_place_into_a_closed_container_fails_and_into_an_open_one_succeeds(robot
     assert perform(robot, ("grab", "mug")).status == "success"
     go(robot, "Kitchen Cabinet")
     shut = perform(robot, ("place", "Kitchen Cabinet", "inside"))
+    assert isinstance(shut, PlaceResult)
     assert (shut.status, shut.error, shut.container) == ("failure", "out_of_reach", "kitchen_cabinet")
     assert "kitchen cabinet" in shut.message
     assert world.holding == "mug"
