@@ -29,7 +29,7 @@ ErrorCode = Literal[
 
 
 #: A grab's or place's `container`: the error is `out_of_reach` because this furniture is closed.
-CONTAINER_IN_THE_WAY = "on out_of_reach, the closed furniture in the way: open(container) first"
+CONTAINER_IN_THE_WAY = "on out_of_reach, the closed furniture in the way: open(container) first (absent otherwise)"
 
 
 class ActionResult(BaseModel):
@@ -108,7 +108,7 @@ class GrabResult(ActionResult):
 
     object: str | None = Field(default=None, description="the object the action was about")
     holding: str | None = Field(default=None, description="the object in the robot's hand afterwards")
-    container: str | None = Field(default=None, description=CONTAINER_IN_THE_WAY)
+    container: str | None = Field(default=None, description=CONTAINER_IN_THE_WAY, exclude_if=_absent)
 
 
 FurnitureError = Literal[
@@ -145,7 +145,7 @@ class PlaceResult(ActionResult):
     location: str | None = None
     position: str | None = None
     holding: str | None = Field(default=None, description="the object in the robot's hand afterwards")
-    container: str | None = Field(default=None, description=CONTAINER_IN_THE_WAY)
+    container: str | None = Field(default=None, description=CONTAINER_IN_THE_WAY, exclude_if=_absent)
 
 
 # --- the camera ------------------------------------------------------------------------------------
