@@ -22,6 +22,8 @@ def generate_into(suite: str, split: str, seed: int, root: Path) -> Path:
     manifest = load_suite(suite)
     out = split_file(root, manifest.name, split, seed)
     out.parent.mkdir(parents=True, exist_ok=True)
+    # said first: a large split takes minutes (robocog-v2.1's test split: about 2 on 2 cores), once
+    print(f"robocog: generating {manifest.name} {split}@{seed} from its seed (once: cached in {root})", file=sys.stderr)
     started = time.perf_counter()
     workers = max(1, min(4, os.cpu_count() or 1))
     text = dump_instances(generate(manifest, split, seed=seed, workers=workers, directory=suite_dir(suite)))

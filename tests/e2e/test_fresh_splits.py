@@ -62,6 +62,7 @@ def runs(world: tuple[Path, dict[str, str]]) -> dict[int, Path]:
         split = f"test@{seed}"
         done = robocog("eval", "study.yaml", "--split", split, "--out", results, "--quiet", cwd=folder, env=env)
         assert done.returncode == 0, done.stderr
+        assert f"generating tiny test@{seed} from its seed" in done.stderr
         assert f"generated tiny test@{seed}: 3 instances" in done.stderr
         submission = folder / f"s{seed}.json"
         done = robocog("submit", "prepare", results, "--out", submission, "--suite-dir", "tiny", cwd=folder, env=env)
