@@ -283,6 +283,16 @@ def load_split(suite: str = DEFAULT_SUITE, split: str = "dev") -> list[Instance]
     return list(_split(directory, split))
 
 
+def fresh_split(suite: str, split: str) -> tuple[str, Path] | None:
+    """A fresh split ("test@12345") of `suite` as its robot servers take it: the suite as reset_world
+    names it ("SUITE@SEED") and the folder to start them with (`--splits`), generated first when it is
+    missing; None for a split the suite ships."""
+    name, seed = parse_split(split)
+    if seed is None:
+        return None
+    return f"{load_suite(suite).name}@{seed}", seeded_root(suite, name, seed)
+
+
 def seeded_root(suite: str, split: str, seed: int) -> Path:
     """The cache root holding the fresh split `split@seed` of `suite` (a name or a directory), generated
     first when it is missing (`robocog.shared.seeded_splits`)."""

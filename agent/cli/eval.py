@@ -86,13 +86,12 @@ def preflight_study(config: EvalConfig, out: Path, *, resume: bool) -> None:
 
 def _with_splits(config: EvalConfig) -> EvalConfig:
     """A study of a fresh split ("test@12345"): its servers told where its instances are (--splits)."""
-    from robocog.shared.seeded_splits import parse_split
-    from robocog.shared.suite import seeded_root
+    from robocog.shared.suite import fresh_split
 
-    split, seed = parse_split(config.split)
-    if config.suite is None or seed is None:
+    fresh = None if config.suite is None else fresh_split(config.suite, config.split)
+    if fresh is None:
         return config
-    root = seeded_root(config.suite, split, seed)
+    _, root = fresh
     return config.model_copy(update={"server_args": [*config.server_args, "--splits", str(root)]})
 
 

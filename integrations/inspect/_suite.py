@@ -60,7 +60,7 @@ from robocog.inspect._tasks import (
 from robocog.shared.family_files import CAPABILITIES
 from robocog.shared.protocol import FURNITURE_TOOLS
 from robocog.shared.seeded_splits import parse_split
-from robocog.shared.suite import DEFAULT_SUITE, Instance, load_split, load_suite, seeded_root, select
+from robocog.shared.suite import DEFAULT_SUITE, Instance, fresh_split, load_split, load_suite, select
 
 #: The suite `robocog/suite` runs unless told (`-T suite=robocog-v2` or `robocog-v1` for the frozen ones).
 SUITE = DEFAULT_SUITE
@@ -111,11 +111,12 @@ def split_metadata(suite: str, split: str) -> dict[str, object]:
     """What each sample of `split` of `suite` carries about it: a fresh split's names its suite SUITE@SEED,
     as its server does, and the folder its instances are in (`splits`, generated first if missing)."""
     name, seed = parse_split(split)
-    if seed is None:
-        return {"suite": suite, "split": name, "split_seed": None}
     generate_on_demand()
-    root = seeded_root(suite, name, seed)
-    return {"suite": f"{load_suite(suite).name}@{seed}", "split": name, "split_seed": seed, "splits": str(root)}
+    fresh = fresh_split(suite, split)
+    if fresh is None:
+        return {"suite": suite, "split": name, "split_seed": None}
+    server_suite, root = fresh
+    return {"suite": server_suite, "split": name, "split_seed": seed, "splits": str(root)}
 
 
 def instance_sample(instance: Instance, where: dict[str, object]) -> Sample:
