@@ -198,7 +198,7 @@ class JsonHttpLink:
                 return connection
             connection.close()  # idle too long: the server may be about to close it
         async with asyncio.timeout(CONNECT_TIMEOUT_S):  # asyncio's: a third of anyio's CPU, on every request
-            reader, writer = await asyncio.open_connection(self._host, self._port, limit=MAX_HEAD)
+            reader, writer = await asyncio.open_connection(self._host, self._port)
         self.connections_opened += 1
         return _Connection(reader, writer)
 
